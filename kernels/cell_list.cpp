@@ -1,0 +1,60 @@
+#include "kernels/cell_list.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hardrod {
+
+namespace {
+
+int wrap_index(int c, int n) { return ((c % n) + n) % n; }
+
+// Offsets along one axis that reach distinct cells: {-1,0,1} with three or more cells,
+// {0,1} with two (left and right neighbour are the same cell), {0} with one.
+std::vector<int> axis_offsets(int cells) {
+  if (cells >= 3) return {-1, 0, 1};
+  if (cells == 2) return {0, 1};
+  return {0};
+}
+
+int cell_coordinate(double c, double side, int cells) {
+  const int k = static_cast<int>(c / side * cells);
+  return std::clamp(k, 0, cells - 1);  // c == side after rounding, or tiny negatives
+}
+
+}  // namespace
+
+int CellList::neighbour(int cx, int cy, int cz, const std::array<int, 3> &o) const {
+  return cell_index(wrap_index(cx + o[0], cells[0]), wrap_index(cy + o[1], cells[1]),
+                    wrap_index(cz + o[2], cells[2]));
+}
+
+void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
+                     double min_side) {
+  const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
+  for (int a = 0; a < 3; ++a)
+    list.cells[a] = std::max(1, static_cast<int>(std::floor(side[a] / min_side)));
+
+  list.stencil.clear();
+  for (int oz : axis_offsets(list.cells[2]))
+    for (int oy : axis_offsets(list.cells[1]))
+      for (int ox : axis_offsets(list.cells[0])) list.stencil.push_back({ox, oy, oz});
+
+  const int ncells = list.cell_count();
+  std::vector<std::uint32_t> cell_of(count);
+  list.cell_start.assign(static_cast<std::size_t>(ncells) + 1, 0);
+  for (std::size_t i = 0; i < count; ++i) {
+    const int c = list.cell_index(cell_coordinate(p.x[i], side[0], list.cells[0]),
+                                  cell_coordinate(p.y[i], side[1], list.cells[1]),
+                                  cell_coordinate(p.z[i], side[2], list.cells[2]));
+    cell_of[i] = static_cast<std::uint32_t>(c);
+    ++list.cell_start[static_cast<std::size_t>(c) + 1];
+  }
+  for (int c = 0; c < ncells; ++c) list.cell_start[c + 1] += list.cell_start[c];
+  list.order.resize(count);
+  std::vector<std::uint32_t> fill(list.cell_start.begin(), list.cell_start.end() - 1);
+  for (std::size_t i = 0; i < count; ++i)
+    list.order[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
+}
+
+}  // namespace hardrod

@@ -1,0 +1,32 @@
+// Contact detection at the midpoint of the step: the narrow phase over the neighbour list.
+// A listed pair is measured (segment_closest) only when the motion bounds of its bodies
+// have used up its recorded slack; then its slack is renewed. Every pair with axis distance
+// < D becomes a Contact, in canonical order. Reads positions, axes, motion bounds; writes
+// the list's slacks and the contacts. Threads split the pairs; per-thread contact blocks
+// are merged and sorted, so the result does not depend on the thread count.
+#pragma once
+
+#include <vector>
+
+#include "kernels/box.hpp"
+#include "kernels/contact.hpp"
+#include "kernels/neighbor_list.hpp"
+#include "kernels/particles.hpp"
+#include "kernels/shape.hpp"
+
+namespace hardrod {
+
+struct DetectionStats {
+  long long narrow_phase_tests = 0;  // segment distances computed this step
+  double max_depth = 0.0;            // deepest overlap this step (0 if none)
+};
+
+DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
+                               NeighborList &list, std::vector<Contact> &contacts);
+
+// Fill the geometric fields of a contact between bodies i and j (any order; the result is
+// canonical). Returns false when the pair does not overlap (distance >= D).
+bool make_contact(const Particles &p, const Box &box, const Shape &shape, std::uint32_t a,
+                  std::uint32_t b, Contact &c, double &distance);
+
+}  // namespace hardrod

@@ -1,0 +1,44 @@
+// Verlet pair list with a skin and lazy, per-pair re-checks (the broad phase).
+// Every pair whose axis segments were closer than D + skin at build time is listed with the
+// segment distance it had. Each body carries a motion bound (how far any point of it has
+// moved since the build); the distance of a pair can shrink by at most the sum of the two
+// bounds, so a pair needs the narrow phase only when that sum reaches its recorded slack.
+// Pairs not listed cannot touch while the two largest bounds sum to less than the skin.
+// The set of contacts found is therefore exactly the brute-force set, whatever the skin.
+// Threading: the build is split over cells; per-thread pair blocks are concatenated.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "kernels/box.hpp"
+#include "kernels/cell_list.hpp"
+#include "kernels/particles.hpp"
+#include "kernels/shape.hpp"
+
+namespace hardrod {
+
+// Slack on every comparison against floating-point distances (in D): covers the rounding
+// of the segment distance and of the accumulated motion bounds, many orders above both.
+inline constexpr double kDistanceSafetyMargin = 1e-9;
+
+struct NeighborList {
+  double skin = 0.3;
+  std::vector<std::uint32_t> first, second;  // pair (first[k], second[k]), local indices
+  // Narrow phase needed once motion_bound[first] + motion_bound[second] >= recheck_at.
+  std::vector<double> recheck_at;
+  CellList cells;
+  long long builds = 0;
+  std::size_t bodies = 0;  // body count the list was built for
+
+  std::size_t pair_count() const { return first.size(); }
+};
+
+// Rebuild the list and reset every body's motion bound to zero.
+void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, const Box &box,
+                         const Shape &shape);
+
+// True when a pair absent from the list could now be touching (the list must be rebuilt).
+bool neighbor_list_expired(const NeighborList &list, const Particles &p, std::size_t count);
+
+}  // namespace hardrod

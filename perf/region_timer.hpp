@@ -1,0 +1,67 @@
+// likwid-style region timers: named after the phases of the time step (integrate, detect,
+// resolve, neighbor_build, thermostat, observe, output, ...), accumulated as wall time and
+// call counts, printed as a table at the end of a run. A region is opened with
+// `ScopedRegion r(timers, Region::kDetect)`; the cost is two steady_clock reads.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace hardrod {
+
+enum class Region : int {
+  kIntegrate = 0,
+  kNeighborBuild,
+  kDetect,
+  kResolve,
+  kThermostat,
+  kObserve,
+  kOutput,
+  kCount
+};
+
+const char *region_name(Region r);
+
+class RegionTimers {
+ public:
+  void add(Region r, std::int64_t nanoseconds) {
+    auto &slot = slots_[static_cast<int>(r)];
+    slot.nanoseconds += nanoseconds;
+    ++slot.calls;
+  }
+  double seconds(Region r) const { return 1e-9 * slots_[static_cast<int>(r)].nanoseconds; }
+  std::int64_t calls(Region r) const { return slots_[static_cast<int>(r)].calls; }
+  double total_seconds() const;
+  // Table: region, seconds, share, calls, ns per call and, if `particle_steps` > 0,
+  // ns per particle-step.
+  std::string table(double particle_steps) const;
+
+ private:
+  struct Slot {
+    std::int64_t nanoseconds = 0;
+    std::int64_t calls = 0;
+  };
+  std::array<Slot, static_cast<int>(Region::kCount)> slots_{};
+};
+
+class ScopedRegion {
+ public:
+  ScopedRegion(RegionTimers &timers, Region region)
+      : timers_(timers), region_(region), start_(std::chrono::steady_clock::now()) {}
+  ~ScopedRegion() {
+    timers_.add(region_, std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             std::chrono::steady_clock::now() - start_)
+                             .count());
+  }
+  ScopedRegion(const ScopedRegion &) = delete;
+  ScopedRegion &operator=(const ScopedRegion &) = delete;
+
+ private:
+  RegionTimers &timers_;
+  Region region_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace hardrod

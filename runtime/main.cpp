@@ -1,0 +1,64 @@
+// The hardrod command line: `hardrod run SCENE.toml [--set key=value ...] [--out DIR]`,
+// `hardrod info`. Exit status: 0 success, 1 usage, 2 bad scene or output directory,
+// 3 the physics broke (overlap beyond tolerance, NaN): the message says which step and dt.
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "runtime/info.hpp"
+#include "runtime/run.hpp"
+#include "runtime/scene.hpp"
+#include "runtime/simulation.hpp"
+
+int main(int argc, char **argv) {
+  CLI::App app{"hardrod: hard-spherocylinder liquid crystals by hard-contact rigid-body dynamics"};
+  app.require_subcommand(1);
+
+  std::string scene_path;
+  std::vector<std::string> overrides;
+  hardrod::RunOptions options;
+  int threads = 0;
+  bool quiet = false;
+  auto *run = app.add_subcommand("run", "run a scene file");
+  run->add_option("scene", scene_path, "scene file (TOML)")->required();
+  run->add_option("--set", overrides, "override a scene key, e.g. --set run.dt=1e-4")
+      ->type_name("KEY=VALUE");
+  run->add_option("--out", options.output_dir, "output directory (default: the scene's output.dir)");
+  run->add_flag("--force", options.force, "overwrite an existing run in the output directory");
+  run->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+      ->check(CLI::PositiveNumber);
+  run->add_flag("--quiet", quiet, "no progress output");
+
+  app.add_subcommand("info", "print the build configuration and the machine");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError &e) {
+    return app.exit(e);
+  }
+
+  if (app.got_subcommand("info")) {
+    fmt::print("{}", hardrod::build_info());
+    return 0;
+  }
+
+  if (threads > 0) omp_set_num_threads(threads);
+  options.quiet = quiet;
+  try {
+    const hardrod::Scene scene = hardrod::load_scene(scene_path, overrides);
+    hardrod::run_scene(scene, options);
+  } catch (const hardrod::SceneError &e) {
+    fmt::print(stderr, "hardrod: error in {}:\n", scene_path);
+    for (const auto &p : e.problems()) fmt::print(stderr, "  {}\n", p);
+    return 2;
+  } catch (const hardrod::PhysicsError &e) {
+    fmt::print(stderr, "hardrod: the run stopped: {}\n", e.what());
+    return 3;
+  }
+  return 0;
+}

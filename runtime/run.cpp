@@ -1,0 +1,316 @@
+#include "runtime/run.hpp"
+
+#include <fmt/format.h>
+#include <omp.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "kernels/block_average.hpp"
+#include "kernels/order_tensor.hpp"
+#include "runtime/simulation.hpp"
+
+namespace hardrod {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+struct Sample {
+  long long step = 0;
+  bool production = false;
+  double order_parameter = 0.0;
+  double pressure_star = 0.0;   // of the interval that ends here
+  double temperature = 0.0;
+  double kinetic_energy = 0.0;
+  long long collisions = 0;     // cumulative
+  double max_depth = 0.0;       // of the interval
+};
+
+std::string duration_text(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "?";
+  const auto s = static_cast<long long>(seconds + 0.5);
+  if (s >= 3600) return fmt::format("{}h{:02}m", s / 3600, (s / 60) % 60);
+  if (s >= 60) return fmt::format("{}m{:02}s", s / 60, s % 60);
+  return fmt::format("{}s", s);
+}
+
+nlohmann::json estimate_json(const Estimate &e) {
+  return {{"mean", e.mean},
+          {"error", std::isfinite(e.error) ? nlohmann::json(e.error) : nlohmann::json(nullptr)},
+          {"samples", e.samples},
+          {"converged", e.converged}};
+}
+
+// Refuse to overwrite an earlier run unless asked to: nothing already written is lost.
+void prepare_output_dir(const fs::path &dir, bool force) {
+  std::error_code ec;
+  if (!force && (fs::exists(dir / "summary.json", ec) || fs::exists(dir / "timeseries.csv", ec)))
+    throw SceneError({fmt::format(
+        "output.dir = \"{}\": already holds a run (summary.json or timeseries.csv); "
+        "choose another with --out DIR, or pass --force to overwrite it",
+        dir.string())});
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw SceneError({fmt::format("output.dir = \"{}\": cannot create directory ({})",
+                                  dir.string(), ec.message())});
+}
+
+class TimeSeries {
+ public:
+  explicit TimeSeries(const fs::path &path) : out_(path) {
+    if (!out_) throw SceneError({fmt::format("cannot write {}", path.string())});
+    out_ << "step,time,phase,order_parameter,pressure_star,pressure_star_running,"
+            "kinetic_energy,temperature,collisions,max_overlap\n";
+  }
+  void write(const Sample &s, double dt, double running) {
+    out_ << fmt::format("{},{:.10g},{},{:.8f},{:.8f},{:.8f},{:.10g},{:.8f},{},{:.6g}\n", s.step,
+                        static_cast<double>(s.step) * dt,
+                        s.production ? "production" : "equilibration", s.order_parameter,
+                        s.pressure_star, running, s.kinetic_energy, s.temperature, s.collisions,
+                        s.max_depth);
+    out_.flush();  // a killed run keeps every sample it took
+  }
+
+ private:
+  std::ofstream out_;
+};
+
+}  // namespace
+
+nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
+  const fs::path dir = options.output_dir.empty() ? scene.output_dir : options.output_dir;
+  prepare_output_dir(dir, options.force);
+  {
+    std::ofstream s(dir / "scene.toml");
+    s << scene_to_toml(scene);
+  }
+  TimeSeries series(dir / "timeseries.csv");
+
+  Simulation sim(scene);
+  const long long total_steps = scene.equilibration_steps + scene.steps;
+  const double eta = scene.packing_fraction();
+  const double n = static_cast<double>(scene.n);
+  const bool live = options.progress == 1 || (options.progress == -1 && isatty(fileno(stdout)));
+  long long log_every = scene.log_interval;
+  if (log_every <= 0) log_every = std::max<long long>(scene.sample_interval, total_steps / 20);
+
+  std::vector<Sample> samples;
+  std::vector<double> s_series, p_series, z_series;
+  long long collisions_total = 0, production_collisions = 0, narrow_tests = 0, contacts = 0,
+            multi_bodies = 0, clusters = 0, solver_iterations_max = 0, solver_unconverged = 0;
+  double max_depth = 0.0, solver_energy_change = 0.0;
+  double running_sum = 0.0;
+  long long running_count = 0;
+  const double kinetic_start = sim.kinetic_energy();
+
+  fmt::print("hardrod: {} {} (L/D = {:g}), N = {}, rho* = {:.4f}, eta = {:.4f}, box {:.4f} x "
+             "{:.4f} x {:.4f}\n",
+             scene.shape_name, scene.shape_name == "sphere" ? "" : "rods", scene.shape.length,
+             scene.n, scene.reduced_density(), eta, scene.box.length.x, scene.box.length.y,
+             scene.box.length.z);
+  fmt::print("hardrod: dt = {:g}, {} equilibration + {} production steps, {} threads, output {}\n",
+             scene.dt, scene.equilibration_steps, scene.steps, omp_get_max_threads(), dir.string());
+  std::fflush(stdout);
+
+  const auto start = Clock::now();
+  auto last_print = start;
+  std::string failure;
+
+  auto take_sample = [&](bool production) {
+    const IntervalTotals t = sim.take_interval();
+    collisions_total += t.collisions;
+    narrow_tests += t.narrow_phase_tests;
+    contacts += t.contacts;
+    multi_bodies += t.multi_contact_bodies;
+    clusters += t.clusters;
+    solver_iterations_max = std::max(solver_iterations_max, t.solver_iterations_max);
+    solver_unconverged += t.solver_unconverged;
+    solver_energy_change += t.solver_energy_change;
+    max_depth = std::max(max_depth, t.max_depth);
+    if (production) production_collisions += t.collisions;
+    if (t.steps == 0) return;
+    ScopedRegion r(sim.timers(), Region::kObserve);
+    Sample s;
+    s.step = sim.current_step();
+    s.production = production;
+    s.order_parameter = order_parameter(axis_moments(sim.particles(), sim.body_count())).S;
+    s.kinetic_energy = sim.kinetic_energy();
+    s.temperature = sim.temperature();
+    if (!std::isfinite(s.kinetic_energy))
+      throw PhysicsError(fmt::format("step {}: kinetic energy is not finite at run.dt = {:g}; "
+                                     "try a smaller run.dt",
+                                     s.step, scene.dt));
+    const double interval_time = static_cast<double>(t.steps) * scene.dt;
+    const double z = 1.0 + t.virial.value() / (3.0 * n * s.temperature * interval_time);
+    s.pressure_star = eta * z;
+    s.collisions = collisions_total;
+    s.max_depth = t.max_depth;
+    if (production && t.steps == scene.sample_interval) {
+      s_series.push_back(s.order_parameter);
+      p_series.push_back(s.pressure_star);
+      z_series.push_back(z);
+    }
+    running_sum += s.pressure_star;
+    ++running_count;
+    series.write(s, scene.dt, running_sum / running_count);
+    samples.push_back(s);
+  };
+
+  auto progress = [&](bool final_line) {
+    const auto now = Clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start).count();
+    const long long done = sim.current_step();
+    const double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
+    const double eta_s = rate > 0 ? static_cast<double>(total_steps - done) / rate : 0.0;
+    const Sample *last = samples.empty() ? nullptr : &samples.back();
+    const std::string line = fmt::format(
+        "step {:>{}}/{} {:<5} t = {:.4g} tau  {:.3g} steps/s  ETA {:<7} S = {}  P* = {}",
+        done, std::to_string(total_steps).size(), total_steps,
+        done <= scene.equilibration_steps ? "equil" : "prod", sim.time(), rate,
+        duration_text(eta_s), last ? fmt::format("{:.4f}", last->order_parameter) : "-",
+        running_count ? fmt::format("{:.4f}", running_sum / running_count) : "-");
+    if (live)
+      fmt::print("\r{}\033[K{}", line, final_line ? "\n" : "");
+    else
+      fmt::print("{}\n", line);
+    std::fflush(stdout);
+    last_print = now;
+  };
+
+  try {
+    while (sim.current_step() < total_steps) {
+      sim.step();
+      const long long step = sim.current_step();
+      if (step == scene.equilibration_steps) {
+        take_sample(false);  // closes equilibration; production intervals start clean
+        running_sum = 0.0;
+        running_count = 0;
+      } else if ((step - scene.equilibration_steps) % scene.sample_interval == 0 ||
+                 step == total_steps) {
+        take_sample(step > scene.equilibration_steps);
+      }
+      if (!options.quiet) {
+        if (live) {
+          if ((step & 63) == 0 &&
+              std::chrono::duration<double>(Clock::now() - last_print).count() > 0.5)
+            progress(false);
+        } else if (step % log_every == 0) {
+          progress(false);
+        }
+      }
+    }
+    if (!options.quiet && live) progress(true);
+  } catch (const PhysicsError &e) {
+    failure = e.what();
+    if (!options.quiet && live) fmt::print("\n");
+  }
+
+  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+  const double production_time = static_cast<double>(scene.steps) * scene.dt;
+  const double simulated = sim.time();
+  const double particle_steps = n * static_cast<double>(sim.current_step());
+
+  // Energy drift: relative kinetic-energy change per tau that the thermostat had to undo,
+  // or, with the thermostat off, the change over the whole run.
+  double drift = 0.0;
+  const auto &corrections = sim.thermostat_corrections();
+  if (!corrections.empty()) {
+    double sum = 0.0;
+    for (double c : corrections) sum += c;
+    drift = sum / (static_cast<double>(corrections.size()) *
+                   static_cast<double>(scene.thermostat_interval) * scene.dt);
+  } else if (simulated > 0) {
+    drift = (sim.kinetic_energy() / kinetic_start - 1.0) / simulated;
+  }
+
+  const Estimate s_est = block_average(s_series);
+  const Estimate p_est = block_average(p_series);
+  const Estimate z_est = block_average(z_series);
+  const EquilibrationCheck s_eq = check_equilibration(s_series);
+  const EquilibrationCheck p_eq = check_equilibration(p_series);
+
+  nlohmann::json summary = {
+      {"status", failure.empty() ? "completed" : "failed"},
+      {"shape", scene.shape_name},
+      {"n", scene.n},
+      {"aspect_ratio", scene.shape.length},
+      {"box", {scene.box.length.x, scene.box.length.y, scene.box.length.z}},
+      {"reduced_density", scene.reduced_density()},
+      {"packing_fraction", eta},
+      {"dt", scene.dt},
+      {"seed", scene.seed},
+      {"equilibration_steps", scene.equilibration_steps},
+      {"steps", scene.steps},
+      {"steps_done", sim.current_step()},
+      {"simulated_time", simulated},
+      {"production_time", production_time},
+      {"pressure_star", estimate_json(p_est)},
+      {"order_parameter", estimate_json(s_est)},
+      {"compressibility_factor", estimate_json(z_est)},
+      {"equilibrated", s_eq.equilibrated && p_eq.equilibrated},
+      {"collisions", collisions_total},
+      {"collision_rate",
+       production_time > 0 ? 2.0 * static_cast<double>(production_collisions) /
+                                 (n * production_time)
+                           : 0.0},
+      {"contacts_per_step",
+       sim.current_step() ? static_cast<double>(contacts) / sim.current_step() : 0.0},
+      {"multi_contact_bodies", multi_bodies},
+      {"multi_contact_clusters", clusters},
+      {"solver_iterations_max", solver_iterations_max},
+      {"solver_unconverged", solver_unconverged},
+      {"solver_energy_change", solver_energy_change},
+      {"narrow_phase_tests_per_step",
+       sim.current_step() ? static_cast<double>(narrow_tests) / sim.current_step() : 0.0},
+      {"neighbor_list_builds", sim.neighbor_list().builds},
+      {"max_overlap", max_depth},
+      {"energy_drift", drift},
+      {"wall_seconds", wall},
+      {"particle_steps_per_second", wall > 0 ? particle_steps / wall : 0.0},
+      {"ns_per_particle_step", particle_steps > 0 ? 1e9 * wall / particle_steps : 0.0},
+      {"ranks", 1},
+      {"threads", omp_get_max_threads()},
+      {"state_checksum", sim.state_checksum()},
+  };
+  nlohmann::json timers;
+  for (int r = 0; r < static_cast<int>(Region::kCount); ++r)
+    timers[region_name(static_cast<Region>(r))] = sim.timers().seconds(static_cast<Region>(r));
+  summary["timers"] = timers;
+  if (!failure.empty()) summary["error"] = failure;
+  {
+    std::ofstream out(dir / "summary.json");
+    out << summary.dump(2) << "\n";
+  }
+
+  if (!options.quiet) {
+    fmt::print("\n{}", sim.timers().table(particle_steps));
+    auto pm = [](const Estimate &e) {
+      return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
+                                    : fmt::format("{:.4f} (no error: too few samples)", e.mean);
+    };
+    fmt::print("\nresults over {} production samples ({:.4g} tau):\n", s_series.size(),
+               production_time);
+    fmt::print("  order parameter S        {}\n", pm(s_est));
+    fmt::print("  pressure P*              {}\n", pm(p_est));
+    fmt::print("  compressibility Z        {}\n", pm(z_est));
+    fmt::print("  collision rate           {:.4g} per particle per tau\n",
+               summary["collision_rate"].get<double>());
+    fmt::print("  max overlap              {:.3g} D\n", max_depth);
+    fmt::print("  energy drift             {:.3g} per tau\n", drift);
+    fmt::print("  equilibrated             {}\n", summary["equilibrated"].get<bool>() ? "yes" : "not sure (first and last third of production differ)");
+    fmt::print("  speed                    {:.1f} ns per particle-step, {:.3g} particle-steps/s\n",
+               summary["ns_per_particle_step"].get<double>(), summary["particle_steps_per_second"].get<double>());
+    fmt::print("  state checksum           {}\n", summary["state_checksum"].get<std::string>());
+    fmt::print("  summary                  {}\n", (dir / "summary.json").string());
+  }
+  if (!failure.empty()) throw PhysicsError(failure);
+  return summary;
+}
+
+}  // namespace hardrod

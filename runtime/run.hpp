@@ -1,0 +1,27 @@
+// A whole run of a scene: equilibration, then production; samples every sample_interval
+// steps (order parameter, pressure of the interval, kinetic energy), a time series written
+// as it goes, a progress line, and summary.json at the end with block-averaged errors.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "runtime/scene.hpp"
+
+namespace hardrod {
+
+struct RunOptions {
+  std::string output_dir;      // empty: the scene's output.dir
+  bool force = false;          // overwrite an existing run in output_dir
+  bool quiet = false;          // no progress lines (tests)
+  int progress = -1;           // -1: live line if stdout is a terminal; 0: plain lines; 1: live
+};
+
+// Runs the scene and returns the summary (also written to DIR/summary.json). Throws
+// SceneError for an unusable output directory and PhysicsError when the physics breaks
+// (after writing what was measured so far).
+nlohmann::json run_scene(const Scene &scene, const RunOptions &options);
+
+}  // namespace hardrod

@@ -1,0 +1,66 @@
+// A scene: everything a run needs, read from a TOML file plus command-line overrides.
+// The key names are the public interface (issue 2): [system], [init], [run], [output].
+// Every problem in a scene is collected and reported together, each naming key and value.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "kernels/box.hpp"
+#include "kernels/shape.hpp"
+
+namespace hardrod {
+
+// All problems found in a scene, one line each ("run.dt = -1: must be > 0").
+class SceneError : public std::runtime_error {
+ public:
+  explicit SceneError(std::vector<std::string> problems);
+  const std::vector<std::string> &problems() const { return problems_; }
+
+ private:
+  std::vector<std::string> problems_;
+};
+
+struct Scene {
+  // [system]
+  std::string shape_name = "spherocylinder";  // "spherocylinder" or "sphere"
+  Shape shape;                                // aspect_ratio -> shape.length (D = 1)
+  long long n = 0;
+  Box box;                                    // from reduced_density, packing_fraction or box
+  // [init]
+  std::array<long long, 3> lattice{0, 0, 0};  // bodies per axis; "auto" resolved here
+  int axis = 0;                               // 0 = x, 1 = y, 2 = z
+  unsigned long long seed = 1;
+  double temperature = 1.0;                   // kT
+  // [run]
+  double dt = 1e-4;
+  long long equilibration_steps = 0;
+  long long steps = 0;
+  long long thermostat_interval = 200;        // 0 = off
+  long long sample_interval = 1000;
+  double max_overlap = 0.05;                  // in D; deeper overlap stops the run
+  double solver_tolerance = 1e-10;            // relative, multi-contact solver
+  long long solver_max_iterations = 1000;
+  double skin = 0.3;                          // neighbour-list skin in D (speed only)
+  // [output]
+  std::string output_dir = "runs/default";
+  long long log_interval = 0;                 // steps between plain progress lines; 0 = auto
+
+  double number_density() const { return static_cast<double>(n) / box.volume(); }
+  double reduced_density() const { return number_density() / shape.close_packing_density(); }
+  double packing_fraction() const { return number_density() * shape.volume(); }
+};
+
+// Parse a TOML file, apply "section.key=value" overrides (value in TOML syntax, strings may
+// be bare), validate, and derive the box. Throws SceneError listing every problem.
+Scene load_scene(const std::string &path, const std::vector<std::string> &overrides = {});
+Scene parse_scene(const std::string &toml_text, const std::vector<std::string> &overrides = {},
+                  const std::string &source_name = "<string>");
+
+// The scene as canonical TOML (written next to a run's output so it can be reproduced).
+std::string scene_to_toml(const Scene &scene);
+
+}  // namespace hardrod
