@@ -1,6 +1,7 @@
-// Blocking analysis of a time series: Flyvbjerg-Petersen levels, Jonsson's level choice,
-// lag-1 bias correction, minimum block count for convergence. See block_average.hpp for the rule
-// and references. Serial by design (a few 1e5 samples at most); plain double sums in a fixed order.
+// Blocking analysis of a time series: Flyvbjerg-Petersen levels, Jonsson's choice of the
+// plateau level, lag-1 bias correction, minimum block count for convergence; the rule and
+// the references are in block_average.hpp. Serial by design (1e5 samples at most); plain
+// double sums in a fixed order, so the result is deterministic.
 #include "kernels/block_average.hpp"
 
 #include <algorithm>
@@ -16,8 +17,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Blocks needed at the chosen level for a converged estimate, and for a level to enter the
 // fallback maximum. With 64 blocks the error itself is known to 9 %, and the correlation
-// test has the power to see what is left: with 32, AR(1) series only 20-40 correlation
-// times long passed it while their errors came out 30 % or more too small.
+// test has the power to see what is left: with 32, most AR(1) series only 20 correlation
+// times long passed it, with errors 30-40 % too small.
 constexpr std::size_t kConvergedBlocks = 64;
 constexpr std::size_t kFallbackBlocks = 8;
 

@@ -15,15 +15,17 @@ struct Box {
   double volume() const { return length.x * length.y * length.z; }
   double min_side() const { return std::fmin(length.x, std::fmin(length.y, length.z)); }
 
-  // Integer number of box lengths to subtract from a separation to reach its minimum image.
-  static double image_shift(double d, double side) { return std::nearbyint(d / side); }
+  Vec3 inverse_length() const { return {1.0 / length.x, 1.0 / length.y, 1.0 / length.z}; }
 
-  // Separation a - b reduced to the minimum image.
-  Vec3 minimum_image(const Vec3 &d) const {
-    return {d.x - image_shift(d.x, length.x) * length.x,
-            d.y - image_shift(d.y, length.y) * length.y,
-            d.z - image_shift(d.z, length.z) * length.z};
+  // Separation a - b reduced to the minimum image. Hot loops pass the precomputed inverse
+  // lengths; every caller uses the same arithmetic, so the same separation always gets the
+  // same integer shift.
+  Vec3 minimum_image(const Vec3 &d, const Vec3 &inverse) const {
+    return {d.x - std::nearbyint(d.x * inverse.x) * length.x,
+            d.y - std::nearbyint(d.y * inverse.y) * length.y,
+            d.z - std::nearbyint(d.z * inverse.z) * length.z};
   }
+  Vec3 minimum_image(const Vec3 &d) const { return minimum_image(d, inverse_length()); }
 
   // Coordinate folded into [0, side). Only subtracts whole box lengths.
   static double wrap(double c, double side) {

@@ -9,12 +9,16 @@ namespace {
 
 int wrap_index(int c, int n) { return ((c % n) + n) % n; }
 
-// Offsets along one axis that reach distinct cells: {-1,0,1} with three or more cells,
-// {0,1} with two (left and right neighbour are the same cell), {0} with one.
-std::vector<int> axis_offsets(int cells) {
-  if (cells >= 3) return {-1, 0, 1};
-  if (cells == 2) return {0, 1};
-  return {0};
+// Offsets along one axis that reach distinct cells: -k..k when the axis has 2k + 1 cells
+// or more; otherwise every cell once (offsets 0 .. cells - 1).
+std::vector<int> axis_offsets(int cells, int k) {
+  std::vector<int> out;
+  if (cells >= 2 * k + 1) {
+    for (int o = -k; o <= k; ++o) out.push_back(o);
+  } else {
+    for (int o = 0; o < cells; ++o) out.push_back(o);
+  }
+  return out;
 }
 
 int cell_coordinate(double c, double side, int cells) {
@@ -30,15 +34,18 @@ int CellList::neighbour(int cx, int cy, int cz, const std::array<int, 3> &o) con
 }
 
 void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
-                     double min_side) {
+                     double reach) {
   const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
+  int k = 2;  // cells per reach
   for (int a = 0; a < 3; ++a)
-    list.cells[a] = std::max(1, static_cast<int>(std::floor(side[a] / min_side)));
+    if (std::floor(side[a] / (reach / 2)) < 5) k = 1;
+  for (int a = 0; a < 3; ++a)
+    list.cells[a] = std::max(1, static_cast<int>(std::floor(side[a] / (reach / k))));
 
   list.stencil.clear();
-  for (int oz : axis_offsets(list.cells[2]))
-    for (int oy : axis_offsets(list.cells[1]))
-      for (int ox : axis_offsets(list.cells[0])) list.stencil.push_back({ox, oy, oz});
+  for (int oz : axis_offsets(list.cells[2], k))
+    for (int oy : axis_offsets(list.cells[1], k))
+      for (int ox : axis_offsets(list.cells[0], k)) list.stencil.push_back({ox, oy, oz});
 
   const int ncells = list.cell_count();
   std::vector<std::uint32_t> cell_of(count);

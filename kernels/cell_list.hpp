@@ -1,9 +1,9 @@
 // Linked-cell binning of body centres: the broad phase that feeds the neighbour list.
-// Cells are at least `min_side` wide (interaction range plus skin), so every pair that can
-// touch lies in the same or an adjacent cell. Dimensions with fewer than three cells get a
-// reduced stencil so that no cell is visited twice through the periodic wrap.
-// Inputs: centres (folded into the box). Output: bodies sorted by cell (counting sort).
-// Serial: it runs only when the neighbour list is rebuilt.
+// Cells are at least `reach / reach_cells` wide, and the stencil spans reach_cells cells
+// each way, so every pair closer than `reach` lies within the stencil. Two cells per reach
+// (when every axis has room for five) cut the candidates about 1.7-fold against one.
+// Axes with too few cells get a reduced stencil so no cell is visited twice through the
+// periodic wrap. Output: bodies sorted by cell (counting sort). Serial: runs on rebuilds.
 #pragma once
 
 #include <array>
@@ -28,6 +28,6 @@ struct CellList {
 };
 
 void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
-                     double min_side);
+                     double reach);
 
 }  // namespace hardrod

@@ -9,13 +9,13 @@
 
 namespace hardrod {
 
-bool make_contact(const Particles &p, const Box &box, const Shape &shape, std::uint32_t a,
-                  std::uint32_t b, Contact &c, double &distance) {
+bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+                  std::uint32_t a, std::uint32_t b, Contact &c, double &distance) {
   // Canonical orientation by global id: the same arithmetic on every rank.
   const std::uint32_t i = p.id[a] < p.id[b] ? a : b;
   const std::uint32_t j = p.id[a] < p.id[b] ? b : a;
   const double h = shape.half_length();
-  const Vec3 rij = box.minimum_image(p.position(j) - p.position(i));
+  const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
   const Vec3 ei = p.axis(i), ej = p.axis(j);
   const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
   distance = std::sqrt(sc.dist2);
@@ -47,6 +47,7 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
   const std::uint32_t *second = list.second.data();
   double *recheck_at = list.recheck_at.data();
   const double *bound = p.motion_bound.data();
+  const Vec3 inverse = box.inverse_length();
 
 #pragma omp parallel reduction(+ : tests) reduction(max : max_depth)
   {
@@ -58,7 +59,7 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
       ++tests;
       Contact c;
       double d = 0.0;
-      if (make_contact(p, box, shape, first[k], second[k], c, d)) {
+      if (make_contact(p, box, inverse, shape, first[k], second[k], c, d)) {
         max_depth = std::max(max_depth, c.depth);
         mine.push_back(c);
       }

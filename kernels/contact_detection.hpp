@@ -24,9 +24,10 @@ struct DetectionStats {
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
                                NeighborList &list, std::vector<Contact> &contacts);
 
-// Fill the geometric fields of a contact between bodies i and j (any order; the result is
-// canonical). Returns false when the pair does not overlap (distance >= D).
-bool make_contact(const Particles &p, const Box &box, const Shape &shape, std::uint32_t a,
-                  std::uint32_t b, Contact &c, double &distance);
+// Fill the geometric fields of a contact between bodies a and b (any order; the result is
+// canonical). Returns false when the pair does not overlap (distance >= D). `inverse` is
+// box.inverse_length().
+bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+                  std::uint32_t a, std::uint32_t b, Contact &c, double &distance);
 
 }  // namespace hardrod

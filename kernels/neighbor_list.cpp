@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cstdlib>
 
 #include "kernels/segment_geometry.hpp"
 
@@ -15,7 +16,12 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, co
   const double centre_reach2 = centre_reach * centre_reach;
   const double h = shape.half_length();
   build_cell_list(list.cells, p, count, box, centre_reach);
+  // Bodies sorted by cell: a cell's bodies are one index range, and neighbours in space
+  // are neighbours in memory for every later pass. Ids travel with the bodies.
+  p.permute(list.cells.order);
   const CellList &cl = list.cells;
+  const Vec3 inverse = box.inverse_length();
+  const double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
 
   const int nthreads = omp_get_max_threads();
   std::vector<std::vector<std::uint32_t>> first(nthreads), second(nthreads);
@@ -27,22 +33,29 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, co
     auto &f = first[tid];
     auto &s = second[tid];
     auto &r = recheck[tid];
-#pragma omp for schedule(dynamic, 8)
+    std::vector<std::uint32_t> near;  // candidates whose centres are within reach
+#pragma omp for schedule(dynamic, 4)
     for (int c = 0; c < cl.cell_count(); ++c) {
       const int cx = c % cl.cells[0];
       const int cy = (c / cl.cells[0]) % cl.cells[1];
       const int cz = c / (cl.cells[0] * cl.cells[1]);
-      for (std::uint32_t a = cl.cell_start[c]; a < cl.cell_start[c + 1]; ++a) {
-        const std::uint32_t i = cl.order[a];
-        const Vec3 xi = p.position(i);
-        const Vec3 ei = p.axis(i);
-        for (const auto &o : cl.stencil) {
-          const int nc = cl.neighbour(cx, cy, cz, o);
-          for (std::uint32_t b = cl.cell_start[nc]; b < cl.cell_start[nc + 1]; ++b) {
-            const std::uint32_t j = cl.order[b];
-            if (j <= i) continue;  // each unordered pair once
-            const Vec3 rij = box.minimum_image(p.position(j) - xi);
-            if (norm2(rij) >= centre_reach2) continue;
+      for (const auto &o : cl.stencil) {
+        // The stencil reaches distinct cells, so visiting only cells nc >= c (and, in c
+        // itself, only later bodies) takes each unordered pair exactly once.
+        const int nc = cl.neighbour(cx, cy, cz, o);
+        if (nc < c) continue;
+        for (std::uint32_t i = cl.cell_start[c]; i < cl.cell_start[c + 1]; ++i) {
+          const std::uint32_t from = nc == c ? i + 1 : cl.cell_start[nc];
+          const std::uint32_t to = cl.cell_start[nc + 1];
+          const double xi = x[i], yi = y[i], zi = z[i];
+          near.clear();
+          for (std::uint32_t j = from; j < to; ++j) {
+            const Vec3 rij = box.minimum_image({x[j] - xi, y[j] - yi, z[j] - zi}, inverse);
+            if (norm2(rij) < centre_reach2) near.push_back(j);
+          }
+          const Vec3 ei = p.axis(i);
+          for (std::uint32_t j : near) {
+            const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
             const SegmentClosest sc = segment_closest(rij, ei, h, p.axis(j), h);
             const double d = std::sqrt(sc.dist2);
             if (d >= reach) continue;

@@ -34,7 +34,8 @@ struct NeighborList {
   std::size_t pair_count() const { return first.size(); }
 };
 
-// Rebuild the list and reset every body's motion bound to zero.
+// Rebuild the list and reset every body's motion bound to zero. Sorts the bodies by cell
+// (they keep their ids; every result downstream is ordered by id, not by storage).
 void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, const Box &box,
                          const Shape &shape);
 

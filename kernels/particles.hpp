@@ -3,6 +3,7 @@
 // that every reduction and every contact list is sorted by (SPEC.md section 7).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -26,6 +27,19 @@ struct Particles {
     for (auto *v : {&x, &y, &z, &ex, &ey, &ez, &vx, &vy, &vz, &wx, &wy, &wz, &motion_bound})
       v->resize(n, 0.0);
     id.resize(n, 0);
+  }
+
+  // Reorder the first order.size() bodies: body k of the result is body order[k] of before.
+  // Used to sort bodies by cell so that neighbours are neighbours in memory too.
+  void permute(const std::vector<std::uint32_t> &order) {
+    std::vector<double> scratch(order.size());
+    for (auto *v : {&x, &y, &z, &ex, &ey, &ez, &vx, &vy, &vz, &wx, &wy, &wz, &motion_bound}) {
+      for (std::size_t k = 0; k < order.size(); ++k) scratch[k] = (*v)[order[k]];
+      std::copy(scratch.begin(), scratch.end(), v->begin());
+    }
+    std::vector<std::int64_t> ids(order.size());
+    for (std::size_t k = 0; k < order.size(); ++k) ids[k] = id[order[k]];
+    std::copy(ids.begin(), ids.end(), id.begin());
   }
 
   Vec3 position(std::size_t i) const { return {x[i], y[i], z[i]}; }

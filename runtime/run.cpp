@@ -109,14 +109,17 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   long long running_count = 0;
   const double kinetic_start = sim.kinetic_energy();
 
-  fmt::print("hardrod: {} {} (L/D = {:g}), N = {}, rho* = {:.4f}, eta = {:.4f}, box {:.4f} x "
-             "{:.4f} x {:.4f}\n",
-             scene.shape_name, scene.shape_name == "sphere" ? "" : "rods", scene.shape.length,
-             scene.n, scene.reduced_density(), eta, scene.box.length.x, scene.box.length.y,
-             scene.box.length.z);
-  fmt::print("hardrod: dt = {:g}, {} equilibration + {} production steps, {} threads, output {}\n",
-             scene.dt, scene.equilibration_steps, scene.steps, omp_get_max_threads(), dir.string());
-  std::fflush(stdout);
+  if (!options.quiet) {
+    fmt::print("hardrod: {} (L/D = {:g}), N = {}, rho* = {:.4f}, eta = {:.4f}, box {:.4f} x "
+               "{:.4f} x {:.4f}\n",
+               scene.shape.is_sphere() ? "hard spheres" : "hard spherocylinders",
+               scene.shape.length, scene.n, scene.reduced_density(), eta, scene.box.length.x,
+               scene.box.length.y, scene.box.length.z);
+    fmt::print("hardrod: dt = {:g}, {} equilibration + {} production steps, {} threads, output {}\n",
+               scene.dt, scene.equilibration_steps, scene.steps, omp_get_max_threads(),
+               dir.string());
+    std::fflush(stdout);
+  }
 
   const auto start = Clock::now();
   auto last_print = start;

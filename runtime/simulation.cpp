@@ -18,6 +18,18 @@ namespace hardrod {
 Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
   place_on_lattice(particles_, scene_.box, scene_.lattice, scene_.axis);
   assign_velocities(particles_, scene_.shape, scene_.seed, scene_.temperature);
+  configure();
+}
+
+Simulation::Simulation(Scene scene, Particles bodies)
+    : scene_(std::move(scene)), particles_(std::move(bodies)) {
+  if (static_cast<long long>(particles_.size()) != scene_.n)
+    throw std::invalid_argument(fmt::format("Simulation: {} bodies given for a scene of n = {}",
+                                            particles_.size(), scene_.n));
+  configure();
+}
+
+void Simulation::configure() {
   kinetic_target_ = hardrod::target_kinetic_energy(scene_.n, scene_.shape, scene_.temperature);
   list_.skin = scene_.skin;
   solver_.tolerance = scene_.solver_tolerance;

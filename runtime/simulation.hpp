@@ -40,7 +40,10 @@ struct IntervalTotals {
 
 class Simulation {
  public:
+  // Starts from the scene's lattice with fresh velocities.
   explicit Simulation(Scene scene);
+  // Starts from given bodies (a snapshot, or another run's state); n must match the scene.
+  Simulation(Scene scene, Particles bodies);
 
   void step();
 
@@ -67,6 +70,7 @@ class Simulation {
   std::string state_checksum() const;
 
  private:
+  void configure();
   void apply_thermostat();
 
   Scene scene_;

@@ -72,7 +72,7 @@ TEST(ContactResolution, IsolatedPairConservesEverything) {
       p.set_position(1, p.position(0) + offset);
       Contact c;
       double d = 0;
-      if (!make_contact(p, box, shape, 0, 1, c, d)) continue;
+      if (!make_contact(p, box, box.inverse_length(), shape, 0, 1, c, d)) continue;
       randomise_motion(p, rng, 1.0);
       const Invariants before = invariants(p, shape);
       std::vector<Contact> contacts{c};

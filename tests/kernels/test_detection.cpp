@@ -114,7 +114,7 @@ TEST(Detection, ContactGeometryIsCanonical) {
   p.set_axis(1, {1, 0, 0});
   Contact c;
   double d = 0;
-  ASSERT_TRUE(make_contact(p, box, shape, 0, 1, c, d));
+  ASSERT_TRUE(make_contact(p, box, box.inverse_length(), shape, 0, 1, c, d));
   EXPECT_EQ(c.id_i, 3);
   EXPECT_EQ(c.id_j, 9);
   EXPECT_NEAR(d, 0.9, 1e-14);

@@ -1,0 +1,119 @@
+// Whole time steps of the paper's scene (N = 18432, L/D = 5, rho* = 0.5) and the everyday
+// scene (N = 2304) on one thread, from a state relaxed away from the lattice, at the
+// paper's dt = 2e-6 and at dt = 1e-4. Reports ns per particle-step split by phase
+// (neighbor_build = broad phase, detect = lazy pair filter + narrow phase, resolve,
+// integrate) and microseconds of CPU per rod per simulated tau. The "limit" benchmark runs
+// only the integration: the floor a full step is measured against.
+// Relaxation before measuring: HARDROD_BENCH_RELAX_TAU (default 1 tau at dt = 1e-4).
+#include <benchmark/benchmark.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <memory>
+
+#include "kernels/integrator.hpp"
+#include "runtime/simulation.hpp"
+
+namespace hardrod {
+namespace {
+
+Scene nematic_scene(int halvings, double dt) {
+  Scene s;
+  s.shape_name = "spherocylinder";
+  s.shape.length = 5.0;
+  const long long nx = 8 >> halvings, nyz = 48 >> halvings;
+  s.lattice = {nx, nyz, nyz};
+  s.n = nx * nyz * nyz;
+  const double side =
+      std::cbrt(static_cast<double>(s.n) / (0.5 * s.shape.close_packing_density()));
+  s.box.length = {side, side, side};
+  s.dt = dt;
+  s.thermostat_interval = 200;
+  return s;
+}
+
+// Relaxed bodies per scene size, made once per process.
+const Particles &relaxed_bodies(int halvings) {
+  static std::map<int, std::unique_ptr<Particles>> cache;
+  auto &slot = cache[halvings];
+  if (!slot) {
+    const char *env = std::getenv("HARDROD_BENCH_RELAX_TAU");
+    const double tau = env ? std::atof(env) : 1.0;
+    omp_set_num_threads(1);
+    Simulation sim(nematic_scene(halvings, 1e-4));
+    const auto steps = static_cast<long long>(std::llround(tau / 1e-4));
+    for (long long k = 0; k < steps; ++k) sim.step();
+    slot = std::make_unique<Particles>(sim.particles());
+  }
+  return *slot;
+}
+
+void add_region_counters(benchmark::State &state, const RegionTimers &before,
+                         const RegionTimers &after, double particle_steps) {
+  for (Region r : {Region::kIntegrate, Region::kNeighborBuild, Region::kDetect, Region::kResolve,
+                   Region::kThermostat}) {
+    const double ns = 1e9 * (after.seconds(r) - before.seconds(r));
+    state.counters[std::string(region_name(r)) + "_ns"] = ns / particle_steps;
+  }
+}
+
+// Arguments: halvings (0 = paper's N = 18432, 1 = everyday N = 2304), dt in units of 1e-6.
+void BM_TimeStep(benchmark::State &state) {
+  const int halvings = static_cast<int>(state.range(0));
+  const double dt = 1e-6 * static_cast<double>(state.range(1));
+  omp_set_num_threads(1);
+  Simulation sim(nematic_scene(halvings, dt), relaxed_bodies(halvings));
+  for (int k = 0; k < 20; ++k) sim.step();  // build the neighbour list outside the timing
+  sim.take_interval();
+  const RegionTimers before = sim.timers();
+  long long steps = 0;
+  for (auto _ : state) {
+    sim.step();
+    ++steps;
+  }
+  const double n = static_cast<double>(sim.body_count());
+  const double particle_steps = n * static_cast<double>(steps);
+  const IntervalTotals t = sim.take_interval();
+  add_region_counters(state, before, sim.timers(), particle_steps);
+  state.counters["ns_per_particle_step"] =
+      benchmark::Counter(particle_steps * 1e-9, benchmark::Counter::kIsRate |
+                                                    benchmark::Counter::kInvert);
+  state.counters["us_per_rod_tau"] =
+      benchmark::Counter(particle_steps * 1e-6 * dt, benchmark::Counter::kIsRate |
+                                                         benchmark::Counter::kInvert);
+  state.counters["narrow_tests_per_step"] = static_cast<double>(t.narrow_phase_tests) / steps;
+  state.counters["contacts_per_step"] = static_cast<double>(t.contacts) / steps;
+  state.counters["pairs_per_rod"] = static_cast<double>(sim.neighbor_list().pair_count()) / n;
+  state.SetItemsProcessed(static_cast<long long>(particle_steps));
+}
+BENCHMARK(BM_TimeStep)
+    ->ArgNames({"halvings", "dt_1e-6"})
+    ->Args({0, 2})
+    ->Args({0, 100})
+    ->Args({1, 2})
+    ->Args({1, 100})
+    ->Unit(benchmark::kMicrosecond);
+
+// The floor: both half steps of free flight and nothing else.
+void BM_IntegrateOnly(benchmark::State &state) {
+  const int halvings = static_cast<int>(state.range(0));
+  omp_set_num_threads(1);
+  Particles p = relaxed_bodies(halvings);
+  const Scene scene = nematic_scene(halvings, 2e-6);
+  for (auto _ : state) {
+    half_step(p, p.size(), scene.shape, 1e-6);
+    half_step(p, p.size(), scene.shape, 1e-6, &scene.box);
+    benchmark::ClobberMemory();
+  }
+  const double particle_steps = static_cast<double>(p.size()) * state.iterations();
+  state.counters["ns_per_particle_step"] =
+      benchmark::Counter(particle_steps * 1e-9, benchmark::Counter::kIsRate |
+                                                    benchmark::Counter::kInvert);
+  state.SetItemsProcessed(static_cast<long long>(particle_steps));
+}
+BENCHMARK(BM_IntegrateOnly)->ArgNames({"halvings"})->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace hardrod
