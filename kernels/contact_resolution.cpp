@@ -105,7 +105,9 @@ ResolutionStats resolve_contacts(Particles &p, const Shape &shape, std::vector<C
   std::vector<ExactSum> virial(nthreads), energy(nthreads);
   long long collisions = 0, clusters = 0, iterations_max = 0, unconverged = 0;
 
-#pragma omp parallel reduction(+ : collisions, clusters, unconverged) reduction(max : iterations_max)
+  // A handful of clusters (the common case at small dt) is resolved on the calling thread.
+#pragma omp parallel reduction(+ : collisions, clusters, unconverged) \
+    reduction(max : iterations_max) if (ncl > 32)
   {
     ExactSum &my_virial = virial[omp_get_thread_num()];
     ExactSum &my_energy = energy[omp_get_thread_num()];

@@ -15,6 +15,9 @@ double fold_coordinate(double c, double side) {
 // library sin and cos in a scalar pass.
 constexpr double kSeriesAngle = 0.1;
 
+// Below this many bodies a parallel region costs more than it saves.
+constexpr long kParallelBodies = 2048;
+
 // sin(a)/a and (1 - cos a)/a^2 as polynomials in a^2: only + and *, so vector lanes and
 // scalar code give identical bits, and there is no division by |w|.
 inline double sinc_series(double a2) {
@@ -60,7 +63,7 @@ namespace {
 
 // Spheres (Rotate = false) skip the rotation entirely: a scene pays only for what it uses.
 template <bool Rotate>
-void drift(Particles &p, long n, double arm, double half_dt) {
+void drift(Particles &p, long n, double arm, double half_dt, const Box *fold) {
   double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(), *__restrict ez = p.ez.data();
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
@@ -71,7 +74,9 @@ void drift(Particles &p, long n, double arm, double half_dt) {
   const double max_series_w2 = (kSeriesAngle / half_dt) * (kSeriesAngle / half_dt);
   long large_angles = 0;
 
-#pragma omp parallel for simd schedule(static) reduction(+ : large_angles)
+  const bool folding = fold != nullptr;
+  const Vec3 side = folding ? fold->length : Vec3{};
+#pragma omp parallel for simd schedule(static) reduction(+ : large_angles) if (n > kParallelBodies)
   for (long i = 0; i < n; ++i) {
     x[i] += vx[i] * half_dt;
     y[i] += vy[i] * half_dt;
@@ -91,9 +96,14 @@ void drift(Particles &p, long n, double arm, double half_dt) {
     } else {
       bound[i] += speed * half_dt * (1.0 + 1e-12);
     }
+    if (folding) {
+      x[i] = fold_coordinate(x[i], side.x);
+      y[i] = fold_coordinate(y[i], side.y);
+      z[i] = fold_coordinate(z[i], side.z);
+    }
   }
   if (large_angles > 0) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n > kParallelBodies)
     for (long i = 0; i < n; ++i) {
       const double w2 = wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
       if (w2 > max_series_w2)
@@ -108,18 +118,9 @@ void half_step(Particles &p, std::size_t count, const Shape &shape, double half_
                const Box *fold) {
   const long n = static_cast<long>(count);
   if (shape.is_sphere())
-    drift<false>(p, n, 0.0, half_dt);
+    drift<false>(p, n, 0.0, half_dt, fold);
   else
-    drift<true>(p, n, shape.half_length(), half_dt);
-  if (fold) {
-    double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
-#pragma omp parallel for simd schedule(static)
-    for (long i = 0; i < n; ++i) {
-      x[i] = fold_coordinate(x[i], fold->length.x);
-      y[i] = fold_coordinate(y[i], fold->length.y);
-      z[i] = fold_coordinate(z[i], fold->length.z);
-    }
-  }
+    drift<true>(p, n, shape.half_length(), half_dt, fold);
 }
 
 void project_angular_velocities(Particles &p, std::size_t count) {

@@ -52,7 +52,8 @@ inline SegmentClosest segment_closest_inline(const Vec3 &r_ij, const Vec3 &e_i, 
   const Vec3 f = sign * e_j;
   const double c = sign * c_signed;
   // d = e_i - f is exact-ish (Sterbenz) for close axes, so sin^2 = |d|^2 (1 - |d|^2/4) keeps
-  // full relative accuracy at small angles, where 1 - c^2 would be pure round-off.
+  // full relative accuracy at small angles, where 1 - c^2 would be pure round-off. (This
+  // identity assumes unit axes; |e| = 1 +- eps changes sin^2 by a relative O(eps) only.)
   const Vec3 d = e_i - f;
   const double d2 = norm2(d);
   const double sin2 = d2 * (1.0 - 0.25 * d2);
@@ -65,7 +66,8 @@ inline SegmentClosest segment_closest_inline(const Vec3 &r_ij, const Vec3 &e_i, 
   // Line-line solution s* = ((r x f) . (e_i x f)) / |e_i x f|^2, the numerator by
   // Binet-Cauchy with e_i x f = d x e_i: (d . r)(f . e_i) - (e_i . r)(f . d). Its error is
   // O(eps theta |r|), so s* is off by O(eps |r| / theta) along a valley of curvature
-  // theta^2 and |gap|^2 by O(eps^2 |r|^2): uniform in theta, no unit-length identity needed.
+  // theta^2 and |gap|^2 by O(eps^2 |r|^2), uniformly in theta. The numerator is exact for
+  // the given vectors: the naive a - b c would be off by eps |r| (norm round-off included).
   const double s_line = (dot(d, r_ij) * c - a * dot(f, d)) / (parallel ? 1.0 : sin2);
   // Middle of the overlap of [-h_i, h_i] with j projected on i, [a - h_j, a + h_j]; without
   // overlap the clamp below gives the nearest end.
