@@ -16,10 +16,11 @@
 namespace hardrod {
 
 struct CellList {
-  std::array<int, 3> cells{1, 1, 1};          // cells per axis
-  std::vector<std::uint32_t> cell_start;      // bodies of cell c: order[cell_start[c] .. cell_start[c+1])
-  std::vector<std::uint32_t> order;           // body indices sorted by cell
-  std::vector<std::array<int, 3>> stencil;    // distinct neighbour offsets, including {0,0,0}
+  std::array<int, 3> cells{1, 1, 1};  // cells per axis
+  std::vector<std::uint32_t>
+      cell_start;                    // bodies of cell c: order[cell_start[c] .. cell_start[c+1])
+  std::vector<std::uint32_t> order;  // body indices sorted by cell
+  std::vector<std::array<int, 3>> stencil;  // distinct neighbour offsets, including {0,0,0}
 
   int cell_count() const { return cells[0] * cells[1] * cells[2]; }
   int cell_index(int cx, int cy, int cz) const { return (cz * cells[1] + cy) * cells[0] + cx; }

@@ -14,11 +14,11 @@ namespace hardrod {
 struct Contact {
   std::uint32_t i = 0, j = 0;  // local body indices, id[i] < id[j]
   std::int64_t id_i = 0, id_j = 0;
-  Vec3 normal;                 // unit, from j to i
-  Vec3 arm_i, arm_j;           // r_i x n and r_j x n (r = contact point - centre)
-  Vec3 separation;             // x_i - x_j, minimum image (for the collision virial)
-  double depth = 0.0;          // D - d, overlap depth
-  double inverse_mass = 0.0;   // k = 1/m_i + 1/m_j + |r_i x n|^2/I_i + |r_j x n|^2/I_j
+  Vec3 normal;                     // unit, from j to i
+  Vec3 arm_i, arm_j;               // r_i x n and r_j x n (r = contact point - centre)
+  Vec3 separation;                 // x_i - x_j, minimum image (for the collision virial)
+  double depth = 0.0;              // D - d, overlap depth
+  double inverse_mass = 0.0;       // k = 1/m_i + 1/m_j + |r_i x n|^2/I_i + |r_j x n|^2/I_j
   double approach_velocity = 0.0;  // u before resolution (< 0: approaching)
   double impulse = 0.0;            // accumulated lambda >= 0 along the normal
 };

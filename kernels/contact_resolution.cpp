@@ -54,65 +54,72 @@ double normal_velocity(const Particles &p, const Contact &c) {
          dot(p.angular_velocity(c.j), c.arm_j);
 }
 
-ResolutionStats resolve_contacts(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
+std::size_t ContactClusters::find(std::uint32_t b) const {
+  const auto it = std::lower_bound(bodies.begin(), bodies.end(), b);
+  return (it != bodies.end() && *it == b) ? static_cast<std::size_t>(it - bodies.begin())
+                                          : bodies.size();
+}
+
+ContactClusters find_clusters(const std::vector<Contact> &contacts) {
+  ContactClusters cc;
+  const std::size_t nc = contacts.size();
+  if (nc == 0) return cc;
+  for (const Contact &c : contacts) {
+    cc.bodies.push_back(c.i);
+    cc.bodies.push_back(c.j);
+  }
+  std::sort(cc.bodies.begin(), cc.bodies.end());
+  cc.bodies.erase(std::unique(cc.bodies.begin(), cc.bodies.end()), cc.bodies.end());
+  cc.degree.assign(cc.bodies.size(), 0);
+  Clusters forest;
+  forest.parent.resize(cc.bodies.size());
+  std::iota(forest.parent.begin(), forest.parent.end(), 0u);
+  std::vector<std::uint32_t> root_of(nc);
+  for (const Contact &c : contacts) {
+    const auto a = static_cast<std::uint32_t>(cc.find(c.i));
+    const auto b = static_cast<std::uint32_t>(cc.find(c.j));
+    ++cc.degree[a];
+    ++cc.degree[b];
+    forest.join(a, b);
+  }
+  for (std::uint32_t d : cc.degree)
+    if (d > 1) ++cc.multi_contact_bodies;
+  for (std::size_t k = 0; k < nc; ++k)
+    root_of[k] = forest.root(static_cast<std::uint32_t>(cc.find(contacts[k].i)));
+  // Contacts grouped by cluster; within a cluster they keep their canonical order.
+  cc.order.resize(nc);
+  std::iota(cc.order.begin(), cc.order.end(), 0u);
+  std::stable_sort(cc.order.begin(), cc.order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return root_of[a] < root_of[b]; });
+  for (std::size_t k = 0; k < nc; ++k)
+    if (k == 0 || root_of[cc.order[k]] != root_of[cc.order[k - 1]]) cc.start.push_back(k);
+  cc.start.push_back(nc);
+  return cc;
+}
+
+ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
+                                 const ContactClusters &cc, const std::vector<char> &active,
                                  const SolverSettings &settings) {
   ResolutionStats stats;
-  const std::size_t nc = contacts.size();
-  if (nc == 0) return stats;
   const double inv_m = 1.0 / shape.mass;
   const double inv_i = shape.inverse_inertia();
   const double inertia = shape.is_sphere() ? 0.0 : shape.inertia_perp();
-
-  // Compact body numbering, then clusters of contacts that share a body.
-  std::vector<std::uint32_t> bodies;
-  bodies.reserve(2 * nc);
-  for (const Contact &c : contacts) {
-    bodies.push_back(c.i);
-    bodies.push_back(c.j);
-  }
-  std::sort(bodies.begin(), bodies.end());
-  std::vector<std::uint32_t> touches(bodies.size());  // contacts per compact body
-  auto compact = [&](std::uint32_t b) {
-    return static_cast<std::uint32_t>(std::lower_bound(bodies.begin(), bodies.end(), b) -
-                                      bodies.begin());
-  };
-  Clusters forest;
-  forest.parent.resize(bodies.size());
-  std::iota(forest.parent.begin(), forest.parent.end(), 0u);
-  for (const Contact &c : contacts) forest.join(compact(c.i), compact(c.j));
-  for (std::uint32_t b : bodies) ++touches[compact(b)];
-  for (std::size_t k = 0; k < bodies.size(); ++k)
-    if (touches[k] > 1 && (k == 0 || bodies[k] != bodies[k - 1])) ++stats.multi_contact_bodies;
-
-  // Contacts grouped by cluster; clusters ordered by their first (canonical) contact.
-  std::vector<std::uint32_t> cluster_of(nc);
-  for (std::size_t k = 0; k < nc; ++k) cluster_of[k] = forest.root(compact(contacts[k].i));
-  std::vector<std::uint32_t> by_cluster(nc);
-  std::iota(by_cluster.begin(), by_cluster.end(), 0u);
-  std::stable_sort(by_cluster.begin(), by_cluster.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return cluster_of[a] < cluster_of[b];
-  });
-  std::vector<std::size_t> cluster_start;
-  for (std::size_t k = 0; k < nc; ++k)
-    if (k == 0 || cluster_of[by_cluster[k]] != cluster_of[by_cluster[k - 1]])
-      cluster_start.push_back(k);
-  cluster_start.push_back(nc);
-  const long ncl = static_cast<long>(cluster_start.size()) - 1;
-
+  const long ncl = static_cast<long>(cc.count());
+  const std::vector<std::uint32_t> &by_cluster = cc.order;
+  const std::vector<std::size_t> &cluster_start = cc.start;
   for (Contact &c : contacts) c.approach_velocity = normal_velocity(p, c);
 
   const int nthreads = omp_get_max_threads();
-  std::vector<ExactSum> virial(nthreads), energy(nthreads);
-  long long collisions = 0, clusters = 0, iterations_max = 0, unconverged = 0;
+  std::vector<ExactSum> energy(nthreads);
+  long long clusters = 0, iterations_max = 0, unconverged = 0;
 
   // A handful of clusters (the common case at small dt) is resolved on the calling thread.
-#pragma omp parallel reduction(+ : collisions, clusters, unconverged) \
-    reduction(max : iterations_max) if (ncl > 32)
+#pragma omp parallel reduction(+ : clusters, unconverged) reduction(max : iterations_max) if (ncl > 32)
   {
-    ExactSum &my_virial = virial[omp_get_thread_num()];
     ExactSum &my_energy = energy[omp_get_thread_num()];
 #pragma omp for schedule(dynamic, 16)
     for (long cl = 0; cl < ncl; ++cl) {
+      if (!active.empty() && !active[cl]) continue;
       const std::size_t begin = cluster_start[cl], end = cluster_start[cl + 1];
       if (end - begin == 1) {  // isolated contact: the exact elastic impulse
         Contact &c = contacts[by_cluster[begin]];
@@ -121,63 +128,69 @@ ResolutionStats resolve_contacts(Particles &p, const Shape &shape, std::vector<C
                               c.inverse_mass);
         c.impulse = lambda;
         if (lambda > 0.0) apply_impulse(p, c, lambda, inv_m, inv_i);
-      } else {
-        ++clusters;
-        std::vector<std::uint32_t> members;
-        double scale = 0.0;
-        for (std::size_t k = begin; k < end; ++k) {
-          const Contact &c = contacts[by_cluster[k]];
-          members.push_back(c.i);
-          members.push_back(c.j);
-          scale = std::max(scale, std::fabs(c.approach_velocity));
-        }
-        std::sort(members.begin(), members.end());
-        members.erase(std::unique(members.begin(), members.end()), members.end());
-        double energy_before = 0.0;
-        for (std::uint32_t b : members) energy_before += kinetic_energy_of(p, b, shape.mass, inertia);
-        const double tolerance = settings.tolerance * std::max(scale, 1e-300);
-        long long it = 0;
-        for (; it < settings.max_iterations; ++it) {
-          double residual = 0.0;
-          for (std::size_t k = begin; k < end; ++k) {
-            Contact &c = contacts[by_cluster[k]];
-            const double u = normal_velocity(p, c);
-            const double wanted = c.impulse + (target_velocity(c.approach_velocity) - u) /
-                                                  c.inverse_mass;
-            const double lambda = std::max(0.0, wanted);
-            const double delta = lambda - c.impulse;
-            if (delta != 0.0) apply_impulse(p, c, delta, inv_m, inv_i);
-            c.impulse = lambda;
-            residual = std::max(residual, std::fabs(delta) * c.inverse_mass);
-          }
-          if (residual <= tolerance) break;
-        }
-        iterations_max = std::max(iterations_max, it + 1);
-        if (it == settings.max_iterations) ++unconverged;
-        double energy_after = 0.0;
-        for (std::uint32_t b : members) energy_after += kinetic_energy_of(p, b, shape.mass, inertia);
-        my_energy.add(energy_after - energy_before);
+        continue;
       }
+      ++clusters;
+      std::vector<std::uint32_t> members;
+      double scale = 0.0;
       for (std::size_t k = begin; k < end; ++k) {
         const Contact &c = contacts[by_cluster[k]];
-        if (c.impulse > 0.0) {
-          ++collisions;
-          my_virial.add(c.impulse * dot(c.normal, c.separation));
-        }
+        members.push_back(c.i);
+        members.push_back(c.j);
+        scale = std::max(scale, std::fabs(c.approach_velocity));
       }
+      std::sort(members.begin(), members.end());
+      members.erase(std::unique(members.begin(), members.end()), members.end());
+      double energy_before = 0.0;
+      for (std::uint32_t b : members) energy_before += kinetic_energy_of(p, b, shape.mass, inertia);
+      const double tolerance = settings.tolerance * std::max(scale, 1e-300);
+      long long it = 0;
+      for (; it < settings.max_iterations; ++it) {
+        double residual = 0.0;
+        for (std::size_t k = begin; k < end; ++k) {
+          Contact &c = contacts[by_cluster[k]];
+          const double u = normal_velocity(p, c);
+          const double wanted =
+              c.impulse + (target_velocity(c.approach_velocity) - u) / c.inverse_mass;
+          const double lambda = std::max(0.0, wanted);
+          const double delta = lambda - c.impulse;
+          if (delta != 0.0) apply_impulse(p, c, delta, inv_m, inv_i);
+          c.impulse = lambda;
+          residual = std::max(residual, std::fabs(delta) * c.inverse_mass);
+        }
+        if (residual <= tolerance) break;
+      }
+      iterations_max = std::max(iterations_max, it + 1);
+      if (it == settings.max_iterations) ++unconverged;
+      double energy_after = 0.0;
+      for (std::uint32_t b : members) energy_after += kinetic_energy_of(p, b, shape.mass, inertia);
+      my_energy.add(energy_after - energy_before);
     }
   }
-  stats.collisions = collisions;
   stats.clusters = clusters;
   stats.iterations_max = iterations_max;
   stats.unconverged = unconverged;
   ExactSum energy_change;
-  for (int t = 0; t < nthreads; ++t) {
-    stats.virial += virial[t];
-    energy_change += energy[t];
-  }
+  for (const ExactSum &e : energy) energy_change += e;
   stats.energy_change = energy_change.value();
   return stats;
+}
+
+ResolutionStats resolve_contacts(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
+                                 const SolverSettings &settings) {
+  return resolve_clusters(p, shape, contacts, find_clusters(contacts), {}, settings);
+}
+
+CollisionTally tally_collisions(const std::vector<Contact> &contacts,
+                                const std::vector<char> &counted) {
+  CollisionTally t;
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    const Contact &c = contacts[k];
+    if ((!counted.empty() && !counted[k]) || !(c.impulse > 0.0)) continue;
+    ++t.collisions;
+    t.virial.add(c.impulse * dot(c.normal, c.separation));
+  }
+  return t;
 }
 
 }  // namespace hardrod

@@ -23,18 +23,46 @@ struct SolverSettings {
   int max_iterations = 1000;
 };
 
-struct ResolutionStats {
-  long long collisions = 0;              // contacts that received an impulse
-  long long clusters = 0;                // clusters with more than one contact
-  long long multi_contact_bodies = 0;    // bodies with more than one contact
-  long long iterations_max = 0;          // largest Gauss-Seidel iteration count
-  long long unconverged = 0;             // clusters that hit max_iterations
-  double energy_change = 0.0;            // kinetic energy change of the clusters (>1 contact)
-  ExactSum virial;                       // sum of J n . (x_i - x_j)
+// Contacts grouped into clusters that share bodies (union-find over this step's contacts).
+struct ContactClusters {
+  std::vector<std::uint32_t> bodies;  // local indices of all contact bodies, sorted, unique
+  std::vector<std::uint32_t> degree;  // contacts per body, parallel to `bodies`
+  std::vector<std::uint32_t> order;   // contact indices grouped by cluster, canonical inside
+  std::vector<std::size_t> start;     // cluster c is order[start[c] .. start[c + 1])
+  long long multi_contact_bodies = 0;
+
+  std::size_t count() const { return start.empty() ? 0 : start.size() - 1; }
+  // Position of local body b in `bodies`, or bodies.size() if it has no contact.
+  std::size_t find(std::uint32_t b) const;
 };
 
+ContactClusters find_clusters(const std::vector<Contact> &contacts);
+
+struct ResolutionStats {
+  long long clusters = 0;        // resolved clusters with more than one contact
+  long long iterations_max = 0;  // largest Gauss-Seidel iteration count
+  long long unconverged = 0;     // clusters that hit max_iterations
+  double energy_change = 0.0;    // kinetic energy change of the clusters (> 1 contact)
+};
+
+// Resolves the clusters with active[c] != 0 (all clusters when `active` is empty), writing
+// each contact's impulse and the velocities of its bodies.
+ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
+                                 const ContactClusters &clusters, const std::vector<char> &active,
+                                 const SolverSettings &settings);
+
+// Convenience for one rank: find and resolve every cluster.
 ResolutionStats resolve_contacts(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
                                  const SolverSettings &settings);
+
+// Collision virial over contacts with counted[k] != 0 (all when `counted` is empty):
+// the sum of J n . (x_i - x_j), and how many of them received an impulse.
+struct CollisionTally {
+  ExactSum virial;
+  long long collisions = 0;
+};
+CollisionTally tally_collisions(const std::vector<Contact> &contacts,
+                                const std::vector<char> &counted);
 
 // Relative normal velocity u = n . ((v_i + w_i x r_i) - (v_j + w_j x r_j)).
 double normal_velocity(const Particles &p, const Contact &c);

@@ -37,8 +37,7 @@ class ExactSum {
     // Split into high and low 64-bit halves so the conversion to double rounds once
     // deterministically (the sum of two exactly representable parts).
     const bool negative = acc_ < 0;
-    const UInt128 mag =
-        negative ? static_cast<UInt128>(-acc_) : static_cast<UInt128>(acc_);
+    const UInt128 mag = negative ? static_cast<UInt128>(-acc_) : static_cast<UInt128>(acc_);
     const auto hi = static_cast<std::uint64_t>(mag >> 64);
     const auto lo = static_cast<std::uint64_t>(mag);
     const double v = static_cast<double>(hi) + std::ldexp(static_cast<double>(lo), -64);

@@ -21,10 +21,18 @@ constexpr long kParallelBodies = 2048;
 // sin(a)/a and (1 - cos a)/a^2 as polynomials in a^2: only + and *, so vector lanes and
 // scalar code give identical bits, and there is no division by |w|.
 inline double sinc_series(double a2) {
-  return 1.0 + a2 * (-1.0 / 6 + a2 * (1.0 / 120 + a2 * (-1.0 / 5040 + a2 * (1.0 / 362880 + a2 * (-1.0 / 39916800 + a2 * (1.0 / 6227020800.0))))));
+  return 1.0 +
+         a2 * (-1.0 / 6 +
+               a2 * (1.0 / 120 +
+                     a2 * (-1.0 / 5040 + a2 * (1.0 / 362880 + a2 * (-1.0 / 39916800 +
+                                                                    a2 * (1.0 / 6227020800.0))))));
 }
 inline double versine_series(double a2) {
-  return 0.5 + a2 * (-1.0 / 24 + a2 * (1.0 / 720 + a2 * (-1.0 / 40320 + a2 * (1.0 / 3628800 + a2 * (-1.0 / 479001600 + a2 * (1.0 / 87178291200.0))))));
+  return 0.5 +
+         a2 * (-1.0 / 24 +
+               a2 * (1.0 / 720 + a2 * (-1.0 / 40320 +
+                                       a2 * (1.0 / 3628800 + a2 * (-1.0 / 479001600 +
+                                                                   a2 * (1.0 / 87178291200.0))))));
 }
 
 // e' = e cos a + (w x e) h sinc(a) + w (w.e) h^2 vers(a)/a^2 with a = |w| h: Rodrigues'
@@ -67,9 +75,9 @@ void drift(Particles &p, long n, double arm, double half_dt, const Box *fold) {
   double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(), *__restrict ez = p.ez.data();
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
-                            *__restrict vz = p.vz.data();
+                           *__restrict vz = p.vz.data();
   const double *__restrict wx = p.wx.data(), *__restrict wy = p.wy.data(),
-                            *__restrict wz = p.wz.data();
+                           *__restrict wz = p.wz.data();
   double *__restrict bound = p.motion_bound.data();
   const double max_series_w2 = (kSeriesAngle / half_dt) * (kSeriesAngle / half_dt);
   long large_angles = 0;

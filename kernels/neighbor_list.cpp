@@ -9,17 +9,28 @@
 
 namespace hardrod {
 
-void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, const Box &box,
-                         const Shape &shape) {
+void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, std::size_t owned,
+                         const Box &box, const Shape &shape) {
   const double reach = shape.diameter + list.skin;  // segment distance kept in the list
   const double centre_reach = shape.length + reach;
   const double centre_reach2 = centre_reach * centre_reach;
   const double h = shape.half_length();
   build_cell_list(list.cells, p, count, box, centre_reach);
-  // Bodies sorted by cell: a cell's bodies are one index range, and neighbours in space
-  // are neighbours in memory for every later pass. Ids travel with the bodies.
-  p.permute(list.cells.order);
+  // Bodies sorted by cell (owned ones first): neighbours in space are neighbours in memory
+  // for every later pass. Ids travel with the bodies. The cell list is then rebuilt on the
+  // new order; with one rank a cell's bodies are one contiguous index range.
+  {
+    std::vector<std::uint32_t> perm;
+    perm.reserve(count);
+    for (std::uint32_t b : list.cells.order)
+      if (b < owned) perm.push_back(b);
+    for (std::uint32_t b : list.cells.order)
+      if (b >= owned) perm.push_back(b);
+    p.permute(perm);
+    build_cell_list(list.cells, p, count, box, centre_reach);
+  }
   const CellList &cl = list.cells;
+  const std::uint32_t *member = cl.order.data();
   const Vec3 inverse = box.inverse_length();
   const double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
 
@@ -44,12 +55,14 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, co
         // itself, only later bodies) takes each unordered pair exactly once.
         const int nc = cl.neighbour(cx, cy, cz, o);
         if (nc < c) continue;
-        for (std::uint32_t i = cl.cell_start[c]; i < cl.cell_start[c + 1]; ++i) {
-          const std::uint32_t from = nc == c ? i + 1 : cl.cell_start[nc];
+        for (std::uint32_t a = cl.cell_start[c]; a < cl.cell_start[c + 1]; ++a) {
+          const std::uint32_t i = member[a];
+          const std::uint32_t from = nc == c ? a + 1 : cl.cell_start[nc];
           const std::uint32_t to = cl.cell_start[nc + 1];
           const double xi = x[i], yi = y[i], zi = z[i];
           near.clear();
-          for (std::uint32_t j = from; j < to; ++j) {
+          for (std::uint32_t b = from; b < to; ++b) {
+            const std::uint32_t j = member[b];
             const Vec3 rij = box.minimum_image({x[j] - xi, y[j] - yi, z[j] - zi}, inverse);
             if (norm2(rij) < centre_reach2) near.push_back(j);
           }
@@ -81,19 +94,15 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, co
   ++list.builds;
 }
 
-bool neighbor_list_expired(const NeighborList &list, const Particles &p, std::size_t count) {
+double largest_motion_bound(const Particles &p, std::size_t count) {
+  double largest = 0.0;
+  for (std::size_t i = 0; i < count; ++i) largest = std::max(largest, p.motion_bound[i]);
+  return largest;
+}
+
+bool neighbor_list_expired(const NeighborList &list, double largest_bound, std::size_t count) {
   if (list.builds == 0 || list.bodies != count) return true;
-  double largest = 0.0, second = 0.0;
-  for (std::size_t i = 0; i < count; ++i) {
-    const double m = p.motion_bound[i];
-    if (m > largest) {
-      second = largest;
-      largest = m;
-    } else if (m > second) {
-      second = m;
-    }
-  }
-  return largest + second >= list.skin - kDistanceSafetyMargin;
+  return 2.0 * largest_bound >= list.skin - kDistanceSafetyMargin;
 }
 
 }  // namespace hardrod

@@ -34,12 +34,23 @@ struct NeighborList {
   std::size_t pair_count() const { return first.size(); }
 };
 
-// Rebuild the list and reset every body's motion bound to zero. Sorts the bodies by cell
-// (they keep their ids; every result downstream is ordered by id, not by storage).
-void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, const Box &box,
-                         const Shape &shape);
+// Rebuild the list over bodies [0, count) and reset their motion bounds to zero. Sorts
+// the bodies by cell, owned ones [0, owned) and shadows [owned, count) separately, so the
+// owned bodies stay first (they keep their ids; every result downstream is ordered by id,
+// not by storage).
+void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, std::size_t owned,
+                         const Box &box, const Shape &shape);
+inline void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count,
+                                const Box &box, const Shape &shape) {
+  build_neighbor_list(list, p, count, count, box, shape);
+}
 
-// True when a pair absent from the list could now be touching (the list must be rebuilt).
-bool neighbor_list_expired(const NeighborList &list, const Particles &p, std::size_t count);
+// Largest motion bound of bodies [0, count).
+double largest_motion_bound(const Particles &p, std::size_t count);
+
+// True when a pair absent from the list could now be touching (the list must be rebuilt):
+// twice the largest motion bound has reached the skin. (Twice the largest rather than the
+// two largest, so that ranks holding different bodies decide alike from one max-reduction.)
+bool neighbor_list_expired(const NeighborList &list, double largest_bound, std::size_t count);
 
 }  // namespace hardrod

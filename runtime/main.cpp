@@ -1,6 +1,7 @@
 // The hardrod command line: `hardrod run SCENE.toml [--set key=value ...] [--out DIR]`,
 // `hardrod info`. Exit status: 0 success, 1 usage, 2 bad scene or output directory,
 // 3 the physics broke (overlap beyond tolerance, NaN): the message says which step and dt.
+#include <fmt/format.h>
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -8,8 +9,7 @@
 #include <string>
 #include <vector>
 
-#include <fmt/format.h>
-
+#include "runtime/comm.hpp"
 #include "runtime/info.hpp"
 #include "runtime/run.hpp"
 #include "runtime/scene.hpp"
@@ -28,11 +28,22 @@ int main(int argc, char **argv) {
   run->add_option("scene", scene_path, "scene file (TOML)")->required();
   run->add_option("--set", overrides, "override a scene key, e.g. --set run.dt=1e-4")
       ->type_name("KEY=VALUE");
-  run->add_option("--out", options.output_dir, "output directory (default: the scene's output.dir)");
+  run->add_option("--out", options.output_dir,
+                  "output directory (default: the scene's output.dir)");
   run->add_flag("--force", options.force, "overwrite an existing run in the output directory");
   run->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
       ->check(CLI::PositiveNumber);
   run->add_flag("--quiet", quiet, "no progress output");
+  std::string grid;
+  run->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
+      ->check([](const std::string &g) {
+        int a, b, c;
+        char t;
+        if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
+          return std::string("--grid must look like 2x2x1 (three positive integers), got '") + g +
+                 "'";
+        return std::string();
+      });
 
   app.add_subcommand("info", "print the build configuration and the machine");
 
@@ -49,15 +60,22 @@ int main(int argc, char **argv) {
 
   if (threads > 0) omp_set_num_threads(threads);
   options.quiet = quiet;
+  if (!grid.empty())
+    std::sscanf(grid.c_str(), "%dx%dx%d", &options.parallel.grid[0], &options.parallel.grid[1],
+                &options.parallel.grid[2]);
+  hardrod::Communicator comm;  // initialises MPI (a single process without mpirun)
+  // Scene problems are found identically on every rank; rank 0 reports them.
   try {
     const hardrod::Scene scene = hardrod::load_scene(scene_path, overrides);
     hardrod::run_scene(scene, options);
   } catch (const hardrod::SceneError &e) {
-    fmt::print(stderr, "hardrod: error in {}:\n", scene_path);
-    for (const auto &p : e.problems()) fmt::print(stderr, "  {}\n", p);
+    if (comm.is_root()) {
+      fmt::print(stderr, "hardrod: error in {}:\n", scene_path);
+      for (const auto &p : e.problems()) fmt::print(stderr, "  {}\n", p);
+    }
     return 2;
   } catch (const hardrod::PhysicsError &e) {
-    fmt::print(stderr, "hardrod: the run stopped: {}\n", e.what());
+    if (comm.is_root()) fmt::print(stderr, "hardrod: the run stopped: {}\n", e.what());
     return 3;
   }
   return 0;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <fstream>
 
 #include "kernels/block_average.hpp"
@@ -25,11 +26,11 @@ struct Sample {
   long long step = 0;
   bool production = false;
   double order_parameter = 0.0;
-  double pressure_star = 0.0;   // of the interval that ends here
+  double pressure_star = 0.0;  // of the interval that ends here
   double temperature = 0.0;
   double kinetic_energy = 0.0;
-  long long collisions = 0;     // cumulative
-  double max_depth = 0.0;       // of the interval
+  long long collisions = 0;  // cumulative
+  double max_depth = 0.0;    // of the interval
 };
 
 std::string duration_text(double seconds) {
@@ -51,14 +52,14 @@ nlohmann::json estimate_json(const Estimate &e) {
 void prepare_output_dir(const fs::path &dir, bool force) {
   std::error_code ec;
   if (!force && (fs::exists(dir / "summary.json", ec) || fs::exists(dir / "timeseries.csv", ec)))
-    throw SceneError({fmt::format(
-        "output.dir = \"{}\": already holds a run (summary.json or timeseries.csv); "
-        "choose another with --out DIR, or pass --force to overwrite it",
-        dir.string())});
+    throw SceneError(
+        {fmt::format("output.dir = \"{}\": already holds a run (summary.json or timeseries.csv); "
+                     "choose another with --out DIR, or pass --force to overwrite it",
+                     dir.string())});
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
-    throw SceneError({fmt::format("output.dir = \"{}\": cannot create directory ({})",
-                                  dir.string(), ec.message())});
+    throw SceneError({fmt::format("output.dir = \"{}\": cannot create directory ({})", dir.string(),
+                                  ec.message())});
 }
 
 class TimeSeries {
@@ -85,17 +86,29 @@ class TimeSeries {
 
 nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   const fs::path dir = options.output_dir.empty() ? scene.output_dir : options.output_dir;
-  prepare_output_dir(dir, options.force);
-  {
-    std::ofstream s(dir / "scene.toml");
-    s << scene_to_toml(scene);
+  Simulation sim(scene, options.parallel);
+  Communicator &comm = sim.comm();
+  const bool root = comm.is_root();
+  // Rank 0 owns the output; every rank learns whether it could be prepared.
+  std::string dir_problem;
+  if (root) {
+    try {
+      prepare_output_dir(dir, options.force);
+      std::ofstream s(dir / "scene.toml");
+      s << scene_to_toml(scene);
+    } catch (const SceneError &e) {
+      dir_problem = e.problems().front();
+    }
   }
-  TimeSeries series(dir / "timeseries.csv");
+  if (comm.sum("setup", dir_problem.empty() ? 0LL : 1LL) > 0)
+    throw SceneError({root ? dir_problem : "output directory could not be prepared (rank 0)"});
+  std::unique_ptr<TimeSeries> series;
+  if (root) series = std::make_unique<TimeSeries>(dir / "timeseries.csv");
 
-  Simulation sim(scene);
   const long long total_steps = scene.equilibration_steps + scene.steps;
   const double eta = scene.packing_fraction();
   const double n = static_cast<double>(scene.n);
+  const bool quiet = options.quiet || !root;
   const bool live = options.progress == 1 || (options.progress == -1 && isatty(fileno(stdout)));
   long long log_every = scene.log_interval;
   if (log_every <= 0) log_every = std::max<long long>(scene.sample_interval, total_steps / 20);
@@ -109,15 +122,16 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   long long running_count = 0;
   const double kinetic_start = sim.kinetic_energy();
 
-  if (!options.quiet) {
-    fmt::print("hardrod: {} (L/D = {:g}), N = {}, rho* = {:.4f}, eta = {:.4f}, box {:.4f} x "
-               "{:.4f} x {:.4f}\n",
-               scene.shape.is_sphere() ? "hard spheres" : "hard spherocylinders",
-               scene.shape.length, scene.n, scene.reduced_density(), eta, scene.box.length.x,
-               scene.box.length.y, scene.box.length.z);
-    fmt::print("hardrod: dt = {:g}, {} equilibration + {} production steps, {} threads, output {}\n",
-               scene.dt, scene.equilibration_steps, scene.steps, omp_get_max_threads(),
-               dir.string());
+  if (!quiet) {
+    fmt::print(
+        "hardrod: {} (L/D = {:g}), N = {}, rho* = {:.4f}, eta = {:.4f}, box {:.4f} x "
+        "{:.4f} x {:.4f}\n",
+        scene.shape.is_sphere() ? "hard spheres" : "hard spherocylinders", scene.shape.length,
+        scene.n, scene.reduced_density(), eta, scene.box.length.x, scene.box.length.y,
+        scene.box.length.z);
+    fmt::print(
+        "hardrod: dt = {:g}, {} equilibration + {} production steps, {} threads, output {}\n",
+        scene.dt, scene.equilibration_steps, scene.steps, omp_get_max_threads(), dir.string());
     std::fflush(stdout);
   }
 
@@ -126,7 +140,9 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   std::string failure;
 
   auto take_sample = [&](bool production) {
-    const IntervalTotals t = sim.take_interval();
+    ScopedRegion r(sim.timers(), Region::kObserve);
+    const Observation o = sim.observe();  // collective: the same numbers on every rank
+    const IntervalTotals &t = o.totals;
     collisions_total += t.collisions;
     narrow_tests += t.narrow_phase_tests;
     contacts += t.contacts;
@@ -138,13 +154,12 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     max_depth = std::max(max_depth, t.max_depth);
     if (production) production_collisions += t.collisions;
     if (t.steps == 0) return;
-    ScopedRegion r(sim.timers(), Region::kObserve);
     Sample s;
-    s.step = sim.current_step();
+    s.step = o.step;
     s.production = production;
-    s.order_parameter = order_parameter(axis_moments(sim.particles(), sim.body_count())).S;
-    s.kinetic_energy = sim.kinetic_energy();
-    s.temperature = sim.temperature();
+    s.order_parameter = o.order_parameter;
+    s.kinetic_energy = o.kinetic_energy;
+    s.temperature = o.temperature;
     if (!std::isfinite(s.kinetic_energy))
       throw PhysicsError(fmt::format("step {}: kinetic energy is not finite at run.dt = {:g}; "
                                      "try a smaller run.dt",
@@ -161,7 +176,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     }
     running_sum += s.pressure_star;
     ++running_count;
-    series.write(s, scene.dt, running_sum / running_count);
+    if (series) series->write(s, scene.dt, running_sum / running_count);
     samples.push_back(s);
   };
 
@@ -173,8 +188,8 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     const double eta_s = rate > 0 ? static_cast<double>(total_steps - done) / rate : 0.0;
     const Sample *last = samples.empty() ? nullptr : &samples.back();
     const std::string line = fmt::format(
-        "step {:>{}}/{} {:<5} t = {:.4g} tau  {:.3g} steps/s  ETA {:<7} S = {}  P* = {}",
-        done, std::to_string(total_steps).size(), total_steps,
+        "step {:>{}}/{} {:<5} t = {:.4g} tau  {:.3g} steps/s  ETA {:<7} S = {}  P* = {}", done,
+        std::to_string(total_steps).size(), total_steps,
         done <= scene.equilibration_steps ? "equil" : "prod", sim.time(), rate,
         duration_text(eta_s), last ? fmt::format("{:.4f}", last->order_parameter) : "-",
         running_count ? fmt::format("{:.4f}", running_sum / running_count) : "-");
@@ -198,7 +213,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
                  step == total_steps) {
         take_sample(step > scene.equilibration_steps);
       }
-      if (!options.quiet) {
+      if (!quiet) {
         if (live) {
           if ((step & 63) == 0 &&
               std::chrono::duration<double>(Clock::now() - last_print).count() > 0.5)
@@ -208,13 +223,13 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
         }
       }
     }
-    if (!options.quiet && live) progress(true);
+    if (!quiet && live) progress(true);
   } catch (const PhysicsError &e) {
     failure = e.what();
-    if (!options.quiet && live) fmt::print("\n");
+    if (!quiet && live) fmt::print("\n");
   }
 
-  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+  const double wall = comm.max("summary", {std::chrono::duration<double>(Clock::now() - start).count()})[0];
   const double production_time = static_cast<double>(scene.steps) * scene.dt;
   const double simulated = sim.time();
   const double particle_steps = n * static_cast<double>(sim.current_step());
@@ -258,10 +273,9 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       {"compressibility_factor", estimate_json(z_est)},
       {"equilibrated", s_eq.equilibrated && p_eq.equilibrated},
       {"collisions", collisions_total},
-      {"collision_rate",
-       production_time > 0 ? 2.0 * static_cast<double>(production_collisions) /
-                                 (n * production_time)
-                           : 0.0},
+      {"collision_rate", production_time > 0 ? 2.0 * static_cast<double>(production_collisions) /
+                                                   (n * production_time)
+                                             : 0.0},
       {"contacts_per_step",
        sim.current_step() ? static_cast<double>(contacts) / sim.current_step() : 0.0},
       {"multi_contact_bodies", multi_bodies},
@@ -277,7 +291,8 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       {"wall_seconds", wall},
       {"particle_steps_per_second", wall > 0 ? particle_steps / wall : 0.0},
       {"ns_per_particle_step", particle_steps > 0 ? 1e9 * wall / particle_steps : 0.0},
-      {"ranks", 1},
+      {"ranks", comm.size()},
+      {"grid", sim.domain().grid()},
       {"threads", omp_get_max_threads()},
       {"state_checksum", sim.state_checksum()},
   };
@@ -285,13 +300,27 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   for (int r = 0; r < static_cast<int>(Region::kCount); ++r)
     timers[region_name(static_cast<Region>(r))] = sim.timers().seconds(static_cast<Region>(r));
   summary["timers"] = timers;
+  // Communication per step per rank, averaged over ranks, by communication step.
+  nlohmann::json traffic = nlohmann::json::object();
+  const double rank_steps =
+      static_cast<double>(comm.size()) * std::max<long long>(1, sim.current_step());
+  for (const char *name : {"agree", "migrate", "shadows", "degrees", "results", "observe",
+                           "kinetic_energy"}) {
+    const auto it = comm.traffic().find(name);
+    const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
+    const long long messages = comm.sum("summary", c.messages);
+    const long long bytes = comm.sum("summary", c.bytes);
+    traffic[name] = {{"messages_per_step", static_cast<double>(messages) / rank_steps},
+                     {"bytes_per_step", static_cast<double>(bytes) / rank_steps}};
+  }
+  summary["communication_per_rank"] = traffic;
   if (!failure.empty()) summary["error"] = failure;
-  {
+  if (root) {
     std::ofstream out(dir / "summary.json");
     out << summary.dump(2) << "\n";
   }
 
-  if (!options.quiet) {
+  if (!quiet) {
     fmt::print("\n{}", sim.timers().table(particle_steps));
     auto pm = [](const Estimate &e) {
       return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
@@ -306,9 +335,13 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
                summary["collision_rate"].get<double>());
     fmt::print("  max overlap              {:.3g} D\n", max_depth);
     fmt::print("  energy drift             {:.3g} per tau\n", drift);
-    fmt::print("  equilibrated             {}\n", summary["equilibrated"].get<bool>() ? "yes" : "not sure (first and last third of production differ)");
+    fmt::print("  equilibrated             {}\n",
+               summary["equilibrated"].get<bool>()
+                   ? "yes"
+                   : "not sure (first and last third of production differ)");
     fmt::print("  speed                    {:.1f} ns per particle-step, {:.3g} particle-steps/s\n",
-               summary["ns_per_particle_step"].get<double>(), summary["particle_steps_per_second"].get<double>());
+               summary["ns_per_particle_step"].get<double>(),
+               summary["particle_steps_per_second"].get<double>());
     fmt::print("  state checksum           {}\n", summary["state_checksum"].get<std::string>());
     fmt::print("  summary                  {}\n", (dir / "summary.json").string());
   }

@@ -4,22 +4,24 @@
 #pragma once
 
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
 #include "runtime/scene.hpp"
+#include "runtime/simulation.hpp"
 
 namespace hardrod {
 
 struct RunOptions {
-  std::string output_dir;      // empty: the scene's output.dir
-  bool force = false;          // overwrite an existing run in output_dir
-  bool quiet = false;          // no progress lines (tests)
-  int progress = -1;           // -1: live line if stdout is a terminal; 0: plain lines; 1: live
+  std::string output_dir;  // empty: the scene's output.dir
+  bool force = false;      // overwrite an existing run in output_dir
+  bool quiet = false;      // no progress lines (tests)
+  int progress = -1;       // -1: live line if stdout is a terminal; 0: plain lines; 1: live
+  ParallelOptions parallel;  // process grid
 };
 
-// Runs the scene and returns the summary (also written to DIR/summary.json). Throws
+// Runs the scene and returns the summary (also written to DIR/summary.json by rank 0;
+// every rank returns the same summary). Collective over all MPI ranks. Throws
 // SceneError for an unusable output directory and PhysicsError when the physics breaks
 // (after writing what was measured so far).
 nlohmann::json run_scene(const Scene &scene, const RunOptions &options);

@@ -29,25 +29,25 @@ struct Scene {
   std::string shape_name = "spherocylinder";  // "spherocylinder" or "sphere"
   Shape shape;                                // aspect_ratio -> shape.length (D = 1)
   long long n = 0;
-  Box box;                                    // from reduced_density, packing_fraction or box
+  Box box;  // from reduced_density, packing_fraction or box
   // [init]
   std::array<long long, 3> lattice{0, 0, 0};  // bodies per axis; "auto" resolved here
   int axis = 0;                               // 0 = x, 1 = y, 2 = z
   unsigned long long seed = 1;
-  double temperature = 1.0;                   // kT
+  double temperature = 1.0;  // kT
   // [run]
   double dt = 1e-4;
   long long equilibration_steps = 0;
   long long steps = 0;
-  long long thermostat_interval = 200;        // 0 = off
+  long long thermostat_interval = 200;  // 0 = off
   long long sample_interval = 1000;
-  double max_overlap = 0.05;                  // in D; deeper overlap stops the run
-  double solver_tolerance = 1e-10;            // relative, multi-contact solver
+  double max_overlap = 0.05;        // in D; deeper overlap stops the run
+  double solver_tolerance = 1e-10;  // relative, multi-contact solver
   long long solver_max_iterations = 1000;
-  double skin = 0.3;                          // neighbour-list skin in D (speed only)
+  double skin = 0.3;  // neighbour-list skin in D (speed only)
   // [output]
   std::string output_dir = "runs/default";
-  long long log_interval = 0;                 // steps between plain progress lines; 0 = auto
+  long long log_interval = 0;  // steps between plain progress lines; 0 = auto
 
   double number_density() const { return static_cast<double>(n) / box.volume(); }
   double reduced_density() const { return number_density() / shape.close_packing_density(); }

@@ -5,83 +5,148 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <numeric>
 
 #include "kernels/contact_detection.hpp"
 #include "kernels/initial_state.hpp"
 #include "kernels/integrator.hpp"
+#include "kernels/order_tensor.hpp"
 #include "kernels/thermostat.hpp"
 
 namespace hardrod {
 
-Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
-  place_on_lattice(particles_, scene_.box, scene_.lattice, scene_.axis);
-  assign_velocities(particles_, scene_.shape, scene_.seed, scene_.temperature);
-  configure();
+namespace {
+
+// A body on the wire: id and the 12 doubles of its state (the motion bound restarts at 0
+// with every rebuild, so it does not travel).
+void pack_body(std::vector<char> &buf, const Particles &p, std::size_t i) {
+  pack(buf, p.id[i]);
+  for (const auto *f : {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy,
+                        &p.wz})
+    pack(buf, (*f)[i]);
 }
 
-Simulation::Simulation(Scene scene, Particles bodies)
-    : scene_(std::move(scene)), particles_(std::move(bodies)) {
-  if (static_cast<long long>(particles_.size()) != scene_.n)
+void unpack_body(const std::vector<char> &buf, std::size_t &off, Particles &p) {
+  const std::size_t i = p.size();
+  p.resize(i + 1);
+  p.id[i] = unpack<std::int64_t>(buf, off);
+  for (auto *f : {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz})
+    (*f)[i] = unpack<double>(buf, off);
+  p.motion_bound[i] = 0.0;
+}
+
+std::size_t partner_slot(const std::vector<int> &partners, int rank) {
+  return static_cast<std::size_t>(std::lower_bound(partners.begin(), partners.end(), rank) -
+                                  partners.begin());
+}
+
+}  // namespace
+
+Simulation::Simulation(Scene scene, ParallelOptions parallel) : scene_(std::move(scene)) {
+  Particles all;
+  place_on_lattice(all, scene_.box, scene_.lattice, scene_.axis);
+  assign_velocities(all, scene_.shape, scene_.seed, scene_.temperature);
+  configure(std::move(all), parallel);
+}
+
+Simulation::Simulation(Scene scene, Particles bodies, ParallelOptions parallel)
+    : scene_(std::move(scene)) {
+  if (static_cast<long long>(bodies.size()) != scene_.n)
     throw std::invalid_argument(fmt::format("Simulation: {} bodies given for a scene of n = {}",
-                                            particles_.size(), scene_.n));
-  configure();
+                                            bodies.size(), scene_.n));
+  configure(std::move(bodies), parallel);
 }
 
-void Simulation::configure() {
+void Simulation::configure(Particles all, ParallelOptions parallel) {
   kinetic_target_ = hardrod::target_kinetic_energy(scene_.n, scene_.shape, scene_.temperature);
   list_.skin = scene_.skin;
   solver_.tolerance = scene_.solver_tolerance;
   solver_.max_iterations = static_cast<int>(scene_.solver_max_iterations);
+
+  const auto grid = comm_.make_grid(parallel.grid);
+  if (grid[0] * grid[1] * grid[2] != comm_.size())
+    throw SceneError({fmt::format("--grid {}x{}x{}: needs {} ranks, running on {}", grid[0],
+                                  grid[1], grid[2], grid[0] * grid[1] * grid[2], comm_.size())});
+  // Shadows reach one interaction range plus the skin: every body that can touch an owned
+  // body before the next rebuild is held (owned bodies may leave the subdomain by skin/2,
+  // others approach by skin/2).
+  const double halo = scene_.shape.interaction_range() + scene_.skin;
+  domain_ = Domain(scene_.box, grid, comm_.rank(), halo);
+
+  // Every rank makes the same full state and keeps the bodies whose centres it owns.
+  Particles mine;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (domain_.owner_of(all.position(i)) != comm_.rank()) continue;
+    const std::size_t k = mine.size();
+    mine.resize(k + 1);
+    mine.id[k] = all.id[i];
+    for (auto [dst, src] :
+         {std::pair{&mine.x, &all.x}, {&mine.y, &all.y}, {&mine.z, &all.z}, {&mine.ex, &all.ex},
+          {&mine.ey, &all.ey}, {&mine.ez, &all.ez}, {&mine.vx, &all.vx}, {&mine.vy, &all.vy},
+          {&mine.vz, &all.vz}, {&mine.wx, &all.wx}, {&mine.wy, &all.wy}, {&mine.wz, &all.wz}})
+      (*dst)[k] = (*src)[i];
+  }
+  particles_ = std::move(mine);
+  owned_ = particles_.size();
 }
+
+void Simulation::fail(const std::string &message) { throw PhysicsError(message); }
 
 void Simulation::step() {
   const double half_dt = 0.5 * scene_.dt;
-  const std::size_t n = particles_.size();
   const Shape &shape = scene_.shape;
 
-  {  // 1. first half: free flight to the midpoint
+  {  // 1. first half: free flight to the midpoint, owned bodies and shadows alike
     ScopedRegion r(timers_, Region::kIntegrate);
-    half_step(particles_, n, shape, half_dt);
+    half_step(particles_, particles_.size(), shape, half_dt);
   }
-  if (neighbor_list_expired(list_, particles_, n)) {
-    ScopedRegion r(timers_, Region::kNeighborBuild);
-    build_neighbor_list(list_, particles_, n, scene_.box, shape);
-  }
+  agree_and_rebuild();
+
   DetectionStats detected;
   {  // 2. contacts at the midpoint
     ScopedRegion r(timers_, Region::kDetect);
     detected = detect_contacts(particles_, scene_.box, shape, list_, contacts_);
   }
-  if (!(detected.max_depth <= scene_.max_overlap))
-    throw PhysicsError(fmt::format(
-        "step {}: overlap depth {:.4g} D exceeds run.max_overlap = {:g} D at run.dt = {:g}; "
-        "the time step is too large for these velocities, try run.dt = {:g}",
-        step_ + 1, detected.max_depth, scene_.max_overlap, scene_.dt, scene_.dt / 4));
+  if (!(detected.max_depth <= scene_.max_overlap)) {
+    pending_depth_ = std::isnan(detected.max_depth) ? 1e300 : detected.max_depth;
+    pending_step_ = step_ + 1;
+    if (comm_.size() == 1) agree_and_rebuild();  // reports at once
+  }
+
   ResolutionStats resolved;
+  std::vector<char> counted(contacts_.size(), 1);
   {  // 3. elastic impulses
     ScopedRegion r(timers_, Region::kResolve);
-    resolved = resolve_contacts(particles_, shape, contacts_, solver_);
+    const ContactClusters clusters = find_clusters(contacts_);
+    if (comm_.size() == 1) {
+      resolved = resolve_clusters(particles_, shape, contacts_, clusters, {}, solver_);
+    } else {
+      const std::vector<char> complete = complete_clusters(clusters);
+      resolved = resolve_clusters(particles_, shape, contacts_, clusters, complete, solver_);
+      share_results(clusters, complete);
+      // Each contact is counted once in the whole system: by the owner of its lower id.
+      for (std::size_t k = 0; k < contacts_.size(); ++k) counted[k] = contacts_[k].i < owned_;
+    }
+    interval_.multi_contact_bodies += clusters.multi_contact_bodies;
   }
   {  // 4. second half
     ScopedRegion r(timers_, Region::kIntegrate);
-    half_step(particles_, n, shape, half_dt, &scene_.box);
+    half_step(particles_, particles_.size(), shape, half_dt, &scene_.box);
   }
   ++step_;
 
+  const CollisionTally tally = tally_collisions(contacts_, counted);
   interval_.steps += 1;
-  interval_.collisions += resolved.collisions;
+  interval_.collisions += tally.collisions;
+  interval_.virial += tally.virial;
   interval_.narrow_phase_tests += detected.narrow_phase_tests;
-  interval_.contacts += static_cast<long long>(contacts_.size());
-  interval_.multi_contact_bodies += resolved.multi_contact_bodies;
+  for (std::size_t k = 0; k < contacts_.size(); ++k) interval_.contacts += counted[k];
   interval_.clusters += resolved.clusters;
   interval_.solver_iterations_max =
       std::max(interval_.solver_iterations_max, resolved.iterations_max);
   interval_.solver_unconverged += resolved.unconverged;
   interval_.max_depth = std::max(interval_.max_depth, detected.max_depth);
   interval_.solver_energy_change += resolved.energy_change;
-  interval_.virial += resolved.virial;
 
   if (scene_.thermostat_interval > 0 && step_ % scene_.thermostat_interval == 0) {
     ScopedRegion r(timers_, Region::kThermostat);
@@ -89,17 +154,220 @@ void Simulation::step() {
   }
 }
 
+// One max-reduction per step: whether any rank's pair list expired, and any problem a
+// rank saw in the previous step (so that every rank stops together).
+void Simulation::agree_and_rebuild() {
+  const double largest = largest_motion_bound(particles_, particles_.size());
+  std::vector<double> flags{largest, pending_depth_, pending_unresolved_,
+                            static_cast<double>(pending_step_)};
+  if (comm_.size() > 1) flags = comm_.max("agree", flags);
+  if (flags[1] > 0.0)
+    fail(fmt::format(
+        "step {}: overlap depth {:.4g} D exceeds run.max_overlap = {:g} D at run.dt = {:g}; "
+        "the time step is too large for these velocities, try run.dt = {:g}",
+        static_cast<long long>(flags[3]), flags[1] >= 1e300 ? NAN : flags[1], scene_.max_overlap,
+        scene_.dt, scene_.dt / 4));
+  if (flags[2] > 0.0)
+    fail(fmt::format(
+        "step {}: a cluster of {} touching bodies spans more ranks than the shadow layer "
+        "covers, so no rank could resolve it; run with fewer ranks or a smaller run.dt "
+        "(now {:g})",
+        static_cast<long long>(flags[3]), static_cast<long long>(flags[2]), scene_.dt));
+  if (!neighbor_list_expired(list_, flags[0], particles_.size())) return;
+  ScopedRegion r(timers_, Region::kNeighborBuild);
+  if (comm_.size() > 1) redistribute();
+  build_neighbor_list(list_, particles_, particles_.size(), owned_, scene_.box, scene_.shape);
+  index_bodies();
+}
+
+// Migration of bodies that left the subdomain, then fresh shadow copies for every partner
+// within the halo, each carrying the list of ranks that hold it.
+void Simulation::redistribute() {
+  const auto &partners = domain_.partners();
+  const std::size_t np = partners.size();
+  particles_.resize(owned_);  // drop the old shadows
+
+  std::vector<std::vector<char>> out(np);
+  Particles staying;
+  for (std::size_t i = 0; i < owned_; ++i) {
+    const int to = domain_.owner_of(particles_.position(i));
+    if (to == comm_.rank()) continue;
+    const std::size_t slot = partner_slot(partners, to);
+    if (slot == np || partners[slot] != to)
+      fail(fmt::format("body {} moved beyond the neighbouring subdomains (to rank {})",
+                       particles_.id[i], to));
+    pack_body(out[slot], particles_, i);
+  }
+  {
+    std::vector<std::uint32_t> keep;
+    for (std::size_t i = 0; i < owned_; ++i)
+      if (domain_.owner_of(particles_.position(i)) == comm_.rank())
+        keep.push_back(static_cast<std::uint32_t>(i));
+    particles_.permute(keep);
+    particles_.resize(keep.size());
+  }
+  const auto arrived = comm_.exchange("migrate", partners, out);
+  for (const auto &buf : arrived)
+    for (std::size_t off = 0; off < buf.size();) unpack_body(buf, off, particles_);
+  owned_ = particles_.size();
+
+  holding_.clear();
+  for (auto &b : out) b.clear();
+  for (std::size_t i = 0; i < owned_; ++i) {
+    Holding h{comm_.rank(), {}};
+    for (int r : partners)
+      if (domain_.near(particles_.position(i), r, domain_.halo())) h.holders.push_back(r);
+    for (int r : h.holders) {
+      auto &buf = out[partner_slot(partners, r)];
+      pack_body(buf, particles_, i);
+      pack(buf, static_cast<std::int32_t>(h.holders.size()));
+      for (int q : h.holders) pack(buf, static_cast<std::int32_t>(q));
+    }
+    holding_[particles_.id[i]] = std::move(h);
+  }
+  const auto shadows = comm_.exchange("shadows", partners, out);
+  for (std::size_t k = 0; k < np; ++k)
+    for (std::size_t off = 0; off < shadows[k].size();) {
+      unpack_body(shadows[k], off, particles_);
+      Holding h{partners[k], {}};
+      const auto count = unpack<std::int32_t>(shadows[k], off);
+      for (std::int32_t q = 0; q < count; ++q) h.holders.push_back(unpack<std::int32_t>(shadows[k], off));
+      holding_[particles_.id.back()] = std::move(h);
+    }
+}
+
+void Simulation::index_bodies() {
+  index_.clear();
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+    index_[particles_.id[i]] = static_cast<std::uint32_t>(i);
+}
+
+// A cluster seen here is complete when every body in it shows here all the contacts its
+// owner counted (owned bodies always do: everything within their reach is held). Owners
+// tell the holders of their bodies those counts: one exchange.
+std::vector<char> Simulation::complete_clusters(const ContactClusters &cc) {
+  const auto &partners = domain_.partners();
+  std::vector<std::vector<char>> out(partners.size());
+  for (std::size_t b = 0; b < cc.bodies.size(); ++b) {
+    const std::uint32_t i = cc.bodies[b];
+    if (i >= owned_) continue;
+    for (int r : holding_.at(particles_.id[i]).holders) {
+      auto &buf = out[partner_slot(partners, r)];
+      pack(buf, particles_.id[i]);
+      pack(buf, cc.degree[b]);
+    }
+  }
+  std::unordered_map<std::int64_t, std::uint32_t> true_degree;
+  for (const auto &buf : comm_.exchange("degrees", partners, out))
+    for (std::size_t off = 0; off < buf.size();) {
+      const auto id = unpack<std::int64_t>(buf, off);
+      true_degree[id] = unpack<std::uint32_t>(buf, off);
+    }
+  std::vector<char> complete(cc.count(), 1);
+  for (std::size_t c = 0; c < cc.count(); ++c)
+    for (std::size_t k = cc.start[c]; k < cc.start[c + 1] && complete[c]; ++k) {
+      const Contact &ct = contacts_[cc.order[k]];
+      for (std::uint32_t i : {ct.i, ct.j}) {
+        if (i < owned_) continue;
+        const auto it = true_degree.find(particles_.id[i]);
+        if (it == true_degree.end() || it->second != cc.degree[cc.find(i)]) complete[c] = 0;
+      }
+    }
+  return complete;
+}
+
+// Every rank that resolved a cluster sends the new velocities of its bodies and the
+// impulses of its contacts to every other rank that holds one of them: one exchange.
+// Duplicates carry identical bits. An owned body in a cluster nobody could resolve is an
+// error, reported collectively at the next step.
+void Simulation::share_results(const ContactClusters &cc, const std::vector<char> &resolved) {
+  const auto &partners = domain_.partners();
+  std::vector<std::vector<char>> out(partners.size());
+  std::vector<int> targets;
+  for (std::size_t c = 0; c < cc.count(); ++c) {
+    if (!resolved[c]) continue;
+    targets.clear();
+    std::vector<std::uint32_t> members;
+    for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
+      members.push_back(contacts_[cc.order[k]].i);
+      members.push_back(contacts_[cc.order[k]].j);
+    }
+    std::sort(members.begin(), members.end());
+    members.erase(std::unique(members.begin(), members.end()), members.end());
+    for (std::uint32_t i : members) {
+      const Holding &h = holding_.at(particles_.id[i]);
+      if (h.owner != comm_.rank()) targets.push_back(h.owner);
+      for (int r : h.holders)
+        if (r != comm_.rank()) targets.push_back(r);
+    }
+    std::sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    for (int r : targets) {
+      auto &buf = out[partner_slot(partners, r)];
+      pack(buf, static_cast<std::int32_t>(members.size()));
+      for (std::uint32_t i : members) {
+        pack(buf, particles_.id[i]);
+        for (const auto *f : {&particles_.vx, &particles_.vy, &particles_.vz, &particles_.wx,
+                              &particles_.wy, &particles_.wz})
+          pack(buf, (*f)[i]);
+      }
+      pack(buf, static_cast<std::int32_t>(cc.start[c + 1] - cc.start[c]));
+      for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
+        const Contact &ct = contacts_[cc.order[k]];
+        pack(buf, ct.id_i);
+        pack(buf, ct.id_j);
+        pack(buf, ct.impulse);
+      }
+    }
+  }
+  std::vector<char> settled(particles_.size(), 0);
+  for (std::size_t c = 0; c < cc.count(); ++c)
+    if (resolved[c])
+      for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k)
+        settled[contacts_[cc.order[k]].i] = settled[contacts_[cc.order[k]].j] = 1;
+  for (const auto &buf : comm_.exchange("results", partners, out))
+    for (std::size_t off = 0; off < buf.size();) {
+      const auto nb = unpack<std::int32_t>(buf, off);
+      for (std::int32_t b = 0; b < nb; ++b) {
+        const auto id = unpack<std::int64_t>(buf, off);
+        double v[6];
+        for (double &x : v) x = unpack<double>(buf, off);
+        const auto it = index_.find(id);
+        if (it == index_.end()) continue;
+        const std::uint32_t i = it->second;
+        particles_.set_velocity(i, {v[0], v[1], v[2]});
+        particles_.set_angular_velocity(i, {v[3], v[4], v[5]});
+        settled[i] = 1;
+      }
+      const auto nk = unpack<std::int32_t>(buf, off);
+      for (std::int32_t k = 0; k < nk; ++k) {
+        Contact probe;
+        probe.id_i = unpack<std::int64_t>(buf, off);
+        probe.id_j = unpack<std::int64_t>(buf, off);
+        const double impulse = unpack<double>(buf, off);
+        const auto it = std::lower_bound(contacts_.begin(), contacts_.end(), probe, canonical_less);
+        if (it != contacts_.end() && it->id_i == probe.id_i && it->id_j == probe.id_j)
+          it->impulse = impulse;
+      }
+    }
+  for (std::uint32_t i : cc.bodies)
+    if (i < owned_ && !settled[i]) {
+      pending_unresolved_ = std::max(pending_unresolved_, 1.0);
+      pending_step_ = step_ + 1;
+    }
+}
+
 void Simulation::apply_thermostat() {
-  const std::size_t n = particles_.size();
-  project_angular_velocities(particles_, n);
+  project_angular_velocities(particles_, particles_.size());
   const double ke = kinetic_energy();
   if (!std::isfinite(ke) || ke <= 0.0)
-    throw PhysicsError(fmt::format(
+    fail(fmt::format(
         "step {}: kinetic energy is {} (NaN or infinite velocities) at run.dt = {:g}; "
         "try a smaller run.dt",
         step_, ke, scene_.dt));
   thermostat_corrections_.push_back(ke / kinetic_target_ - 1.0);
-  scale_velocities(particles_, n, std::sqrt(kinetic_target_ / ke));
+  // Shadows are scaled too, by the same factor: they stay bit-identical to their owners.
+  scale_velocities(particles_, particles_.size(), std::sqrt(kinetic_target_ / ke));
 }
 
 IntervalTotals Simulation::take_interval() {
@@ -108,21 +376,74 @@ IntervalTotals Simulation::take_interval() {
   return out;
 }
 
-double Simulation::kinetic_energy() const {
-  return hardrod::kinetic_energy(particles_, particles_.size(), scene_.shape).total();
+double Simulation::kinetic_energy() {
+  const KineticEnergy local = hardrod::kinetic_energy(particles_, owned_, scene_.shape);
+  const auto sums = comm_.sum("kinetic_energy", {local.translational, local.rotational});
+  ExactSum total = sums[0];
+  total += sums[1];
+  return total.value();
 }
 
-double Simulation::temperature() const {
+double Simulation::temperature() {
   const double dof =
       static_cast<double>(scene_.shape.degrees_of_freedom()) * static_cast<double>(scene_.n) - 3.0;
   return 2.0 * kinetic_energy() / dof;
 }
 
-std::string Simulation::state_checksum() const {
-  const Particles &p = particles_;
-  std::vector<std::size_t> order(p.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p.id[a] < p.id[b]; });
+Observation Simulation::observe() {
+  Observation o;
+  o.step = step_;
+  const IntervalTotals t = take_interval();
+  const AxisMoments m = axis_moments(particles_, owned_);
+  const KineticEnergy ke = hardrod::kinetic_energy(particles_, owned_, scene_.shape);
+  const auto sums = comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz, ke.translational,
+                                          ke.rotational, t.virial});
+  AxisMoments global;
+  global.xx = sums[0];
+  global.xy = sums[1];
+  global.xz = sums[2];
+  global.yy = sums[3];
+  global.yz = sums[4];
+  global.zz = sums[5];
+  global.count = scene_.n;
+  o.order_parameter = order_parameter(global).S;
+  ExactSum e = sums[6];
+  e += sums[7];
+  o.kinetic_energy = e.value();
+  const double dof =
+      static_cast<double>(scene_.shape.degrees_of_freedom()) * static_cast<double>(scene_.n) - 3.0;
+  o.temperature = 2.0 * o.kinetic_energy / dof;
+  o.totals = t;
+  o.totals.virial = sums[8];
+  if (comm_.size() > 1) {
+    for (long long *v : {&o.totals.collisions, &o.totals.narrow_phase_tests, &o.totals.contacts,
+                         &o.totals.multi_contact_bodies, &o.totals.clusters,
+                         &o.totals.solver_unconverged})
+      *v = comm_.sum("observe", *v);
+    const auto mx = comm_.max("observe", {t.max_depth, static_cast<double>(t.solver_iterations_max)});
+    o.totals.max_depth = mx[0];
+    o.totals.solver_iterations_max = static_cast<long long>(mx[1]);
+  }
+  return o;
+}
+
+Particles Simulation::gather_bodies() {
+  std::vector<char> mine;
+  for (std::size_t i = 0; i < owned_; ++i) pack_body(mine, particles_, i);
+  const std::vector<char> all = comm_.gather("gather", mine);
+  Particles bodies;
+  if (!comm_.is_root()) return bodies;
+  for (std::size_t off = 0; off < all.size();) unpack_body(all, off, bodies);
+  std::vector<std::uint32_t> order(bodies.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return bodies.id[a] < bodies.id[b]; });
+  bodies.permute(order);
+  return bodies;
+}
+
+std::string Simulation::state_checksum() {
+  const Particles p = gather_bodies();
   std::uint64_t hash = 1469598103934665603ULL;  // FNV-1a 64
   auto feed = [&hash](const void *data, std::size_t bytes) {
     const auto *c = static_cast<const unsigned char *>(data);
@@ -131,13 +452,17 @@ std::string Simulation::state_checksum() const {
       hash *= 1099511628211ULL;
     }
   };
-  for (std::size_t i : order) {
+  for (std::size_t i = 0; i < p.size(); ++i) {
     feed(&p.id[i], sizeof(std::int64_t));
-    for (const auto *field : {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx,
-                              &p.wy, &p.wz})
+    for (const auto *field :
+         {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz})
       feed(&(*field)[i], sizeof(double));
   }
-  return fmt::format("{:016x}", hash);
+  // Rank 0 computed it; a sum with zeros from the other ranks gives it to everyone.
+  ExactSum h;
+  if (comm_.is_root()) h = ExactSum::from_raw(static_cast<Int128>(hash), false);
+  const ExactSum all = comm_.sum("checksum", h);
+  return fmt::format("{:016x}", static_cast<std::uint64_t>(all.raw()));
 }
 
 }  // namespace hardrod

@@ -1,11 +1,18 @@
-// The state of a run and one time step (SPEC.md section 3). `step()` reads like the
-// algorithm: half step, (re)build the pair list if it expired, detect, resolve, half step,
-// thermostat; each phase a named, timed call into kernels/. Physics that breaks (overlap
-// beyond run.max_overlap, NaN) throws PhysicsError naming the step and dt.
+// The state of a run and one time step (SPEC.md sections 3 and 7). `step()` reads like the
+// algorithm: half step, agree on rebuilds (one max-reduction), redistribute bodies and
+// rebuild the pair list if it expired, detect, resolve (with one exchange of contact
+// degrees and one of results when bodies of a cluster live on several ranks), half step,
+// thermostat. Each phase is a named, timed call into kernels/; every communication step
+// is a named, counted call into runtime/comm. One rank runs the same code with no
+// partners. Physics that breaks (overlap beyond run.max_overlap, NaN) throws PhysicsError
+// naming the step and dt, on every rank.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "kernels/contact.hpp"
@@ -14,6 +21,8 @@
 #include "kernels/neighbor_list.hpp"
 #include "kernels/particles.hpp"
 #include "perf/region_timer.hpp"
+#include "runtime/comm.hpp"
+#include "runtime/domain.hpp"
 #include "runtime/scene.hpp"
 
 namespace hardrod {
@@ -23,7 +32,12 @@ class PhysicsError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Running totals since the last call to Simulation::take_interval().
+struct ParallelOptions {
+  std::array<int, 3> grid{0, 0, 0};  // ranks per axis; zeros: MPI_Dims_create decides
+};
+
+// Running totals since the last call to Simulation::take_interval(), for this rank's
+// share (contacts are counted by the rank that owns their lower-id body).
 struct IntervalTotals {
   long long steps = 0;
   long long collisions = 0;
@@ -38,43 +52,75 @@ struct IntervalTotals {
   ExactSum virial;  // sum of J n . (x_i - x_j)
 };
 
+// One sample of the whole system (collective: every rank gets the same numbers).
+struct Observation {
+  long long step = 0;
+  double order_parameter = 0.0;
+  double kinetic_energy = 0.0;
+  double temperature = 0.0;
+  IntervalTotals totals;  // summed over ranks
+};
+
 class Simulation {
  public:
   // Starts from the scene's lattice with fresh velocities.
-  explicit Simulation(Scene scene);
-  // Starts from given bodies (a snapshot, or another run's state); n must match the scene.
-  Simulation(Scene scene, Particles bodies);
+  explicit Simulation(Scene scene, ParallelOptions parallel = {});
+  // Starts from given bodies (all n of them, on every rank; each keeps its own).
+  Simulation(Scene scene, Particles bodies, ParallelOptions parallel = {});
 
   void step();
 
   const Scene &scene() const { return scene_; }
+  // Bodies held by this rank: [0, owned_count()) owned, the rest shadows.
   const Particles &particles() const { return particles_; }
   Particles &particles() { return particles_; }
-  std::size_t body_count() const { return particles_.size(); }
+  std::size_t owned_count() const { return owned_; }
   long long current_step() const { return step_; }
   double time() const { return static_cast<double>(step_) * scene_.dt; }
   const RegionTimers &timers() const { return timers_; }
   RegionTimers &timers() { return timers_; }
   const NeighborList &neighbor_list() const { return list_; }
+  Communicator &comm() { return comm_; }
+  const Domain &domain() const { return domain_; }
 
-  // Totals accumulated since the previous call; resets them.
+  // This rank's totals since the previous call; resets them.
   IntervalTotals take_interval();
-  // Current kinetic energy (exact sum) and the thermostat's target.
-  double kinetic_energy() const;
+  // Collective: the order parameter, kinetic energy and the interval totals of all ranks.
+  Observation observe();
+  // Collective: total kinetic energy (exact sum over owned bodies of all ranks).
+  double kinetic_energy();
   double target_kinetic_energy() const { return kinetic_target_; }
-  // Instantaneous temperature from the kinetic energy, kT = 2 KE / (dof N - 3).
-  double temperature() const;
+  double temperature();
   // Relative kinetic-energy error each thermostat application found (drift record).
   const std::vector<double> &thermostat_corrections() const { return thermostat_corrections_; }
-  // FNV-1a hash of ids, positions, axes, velocities and angular velocities in id order.
-  std::string state_checksum() const;
+  // Collective: all bodies in id order (rank 0 only; others get an empty set).
+  Particles gather_bodies();
+  // Collective: FNV-1a hash of ids, positions, axes, velocities and angular velocities in
+  // id order (the same string on every rank).
+  std::string state_checksum();
 
  private:
-  void configure();
+  struct Holding {
+    int owner = 0;
+    std::vector<int> holders;  // ranks with a shadow copy
+  };
+
+  void configure(Particles all, ParallelOptions parallel);
+  void agree_and_rebuild();
+  void redistribute();
+  std::vector<char> complete_clusters(const ContactClusters &clusters);
+  void share_results(const ContactClusters &clusters, const std::vector<char> &resolved);
   void apply_thermostat();
+  void index_bodies();
+  [[noreturn]] void fail(const std::string &message);
 
   Scene scene_;
+  Communicator comm_;
+  Domain domain_;
   Particles particles_;
+  std::size_t owned_ = 0;
+  std::unordered_map<std::int64_t, Holding> holding_;     // by id, for every held body
+  std::unordered_map<std::int64_t, std::uint32_t> index_;  // id -> local index
   NeighborList list_;
   std::vector<Contact> contacts_;
   SolverSettings solver_;
@@ -83,6 +129,10 @@ class Simulation {
   std::vector<double> thermostat_corrections_;
   double kinetic_target_ = 0.0;
   long long step_ = 0;
+  // A problem seen by this rank, reported collectively at the next agreement.
+  double pending_depth_ = 0.0;
+  double pending_unresolved_ = 0.0;
+  long long pending_step_ = 0;
 };
 
 }  // namespace hardrod

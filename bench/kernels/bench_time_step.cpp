@@ -26,8 +26,7 @@ Scene nematic_scene(int halvings, double dt) {
   const long long nx = 8 >> halvings, nyz = 48 >> halvings;
   s.lattice = {nx, nyz, nyz};
   s.n = nx * nyz * nyz;
-  const double side =
-      std::cbrt(static_cast<double>(s.n) / (0.5 * s.shape.close_packing_density()));
+  const double side = std::cbrt(static_cast<double>(s.n) / (0.5 * s.shape.close_packing_density()));
   s.box.length = {side, side, side};
   s.dt = dt;
   s.thermostat_interval = 200;
@@ -73,16 +72,14 @@ void BM_TimeStep(benchmark::State &state) {
     sim.step();
     ++steps;
   }
-  const double n = static_cast<double>(sim.body_count());
+  const double n = static_cast<double>(sim.owned_count());
   const double particle_steps = n * static_cast<double>(steps);
   const IntervalTotals t = sim.take_interval();
   add_region_counters(state, before, sim.timers(), particle_steps);
-  state.counters["ns_per_particle_step"] =
-      benchmark::Counter(particle_steps * 1e-9, benchmark::Counter::kIsRate |
-                                                    benchmark::Counter::kInvert);
-  state.counters["us_per_rod_tau"] =
-      benchmark::Counter(particle_steps * 1e-6 * dt, benchmark::Counter::kIsRate |
-                                                         benchmark::Counter::kInvert);
+  state.counters["ns_per_particle_step"] = benchmark::Counter(
+      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["us_per_rod_tau"] = benchmark::Counter(
+      particle_steps * 1e-6 * dt, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["narrow_tests_per_step"] = static_cast<double>(t.narrow_phase_tests) / steps;
   state.counters["contacts_per_step"] = static_cast<double>(t.contacts) / steps;
   state.counters["pairs_per_rod"] = static_cast<double>(sim.neighbor_list().pair_count()) / n;
@@ -108,9 +105,8 @@ void BM_IntegrateOnly(benchmark::State &state) {
     benchmark::ClobberMemory();
   }
   const double particle_steps = static_cast<double>(p.size()) * state.iterations();
-  state.counters["ns_per_particle_step"] =
-      benchmark::Counter(particle_steps * 1e-9, benchmark::Counter::kIsRate |
-                                                    benchmark::Counter::kInvert);
+  state.counters["ns_per_particle_step"] = benchmark::Counter(
+      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.SetItemsProcessed(static_cast<long long>(particle_steps));
 }
 BENCHMARK(BM_IntegrateOnly)->ArgNames({"halvings"})->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);

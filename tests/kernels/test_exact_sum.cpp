@@ -24,7 +24,8 @@ TEST(ExactSum, IndependentOfOrder) {
   // And it is accurate: compare with a long double sum.
   long double ref = 0;
   for (double t : terms) ref += t;
-  EXPECT_NEAR(a.value(), static_cast<double>(ref), 1e-9 * std::fabs(static_cast<double>(ref)) + 1e-9);
+  EXPECT_NEAR(a.value(), static_cast<double>(ref),
+              1e-9 * std::fabs(static_cast<double>(ref)) + 1e-9);
   // Naive double summation does depend on the order (otherwise this test proves nothing).
   double s1 = 0, s2 = 0;
   for (double t : terms) s1 += t;

@@ -37,11 +37,12 @@ TEST_P(HardSphereEquationOfState, MatchesCarnahanStarling) {
   const double z = summary["compressibility_factor"]["mean"].get<double>();
   const double err = summary["compressibility_factor"]["error"].get<double>();
   const double cs = carnahan_starling(eta);
-  std::printf("eta = %.2f: Z = %.4f +/- %.4f, Carnahan-Starling %.4f, deviation %+.3f %%, "
-              "%lld samples, %.1f s wall\n",
-              eta, z, err, cs, 100 * (z / cs - 1),
-              summary["compressibility_factor"]["samples"].get<long long>(),
-              summary["wall_seconds"].get<double>());
+  std::printf(
+      "eta = %.2f: Z = %.4f +/- %.4f, Carnahan-Starling %.4f, deviation %+.3f %%, "
+      "%lld samples, %.1f s wall\n",
+      eta, z, err, cs, 100 * (z / cs - 1),
+      summary["compressibility_factor"]["samples"].get<long long>(),
+      summary["wall_seconds"].get<double>());
   EXPECT_LT(err / cs, 0.002) << "run too short for a 0.5 % test";
   EXPECT_NEAR(z / cs, 1.0, 0.005);
   EXPECT_LT(summary["max_overlap"].get<double>(), 0.01);
