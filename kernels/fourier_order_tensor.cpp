@@ -6,8 +6,6 @@
 // kx >= 0 then yields the sums for +kx and -kx. Block partials are added in block order.
 #include "kernels/fourier_order_tensor.hpp"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -21,10 +19,10 @@
 namespace hardrod {
 namespace {
 
-constexpr std::size_t kChunk = 256;      // bodies whose phase tables stay in L1/L2 together
-constexpr std::size_t kMinBlock = 256;   // smallest block (fixed bounds, any thread count)
-constexpr std::size_t kMaxBlocks = 64;   // bounds the memory of the block partial sums
-constexpr std::size_t kValuesPerMode = 2 * kQComponents;  // re, im per component
+constexpr std::size_t kChunk = 256;     // bodies whose phase tables stay in L1/L2 together
+constexpr std::size_t kMinBlock = 256;  // smallest block (fixed bounds, any thread count)
+constexpr std::size_t kMaxBlocks = 64;  // bounds the memory of the block partial sums
+constexpr std::size_t kValuesPerMode = 2 * std::size_t{kQComponents};  // re, im each
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // One (ky, kz) row of the half space; its modes are first + (kx - kx_min), kx < kmax.
@@ -68,7 +66,7 @@ struct Workspace {
 
 void phase_table(const double *coord, std::size_t n, double side, int kmax, double *re,
                  double *im) {
-  for (std::size_t j = 0; j < n; ++j) {  // scalar sin/cos: the same bits in every lane
+  for (std::size_t j = 0; j < n; ++j) {  // one sincos per body; harmonics by recurrence
     const double theta = kTwoPi * (coord[j] / side);
     re[j] = 1.0;
     im[j] = 0.0;
@@ -89,8 +87,8 @@ void phase_table(const double *coord, std::size_t n, double side, int kmax, doub
 }
 
 // sum_j q_c (a + ib)_j for the five components: out[2c] real, out[2c+1] imaginary part.
-void single_sums(const double *__restrict a, const double *__restrict b,
-                 const double *__restrict q, std::size_t n, double *out) {
+void single_sums(const double *__restrict a, const double *__restrict b, const double *__restrict q,
+                 std::size_t n, double *out) {
   const double *q0 = q, *q1 = q + kChunk, *q2 = q + 2 * kChunk, *q3 = q + 3 * kChunk,
                *q4 = q + 4 * kChunk;
   double r0 = 0, r1 = 0, r2 = 0, r3 = 0, r4 = 0, i0 = 0, i1 = 0, i2 = 0, i3 = 0, i4 = 0;
@@ -102,20 +100,19 @@ void single_sums(const double *__restrict a, const double *__restrict b,
     i4 += q4[j] * b[j];
   }
   const double r[] = {r0, r1, r2, r3, r4}, i[] = {i0, i1, i2, i3, i4};
-  for (int c = 0; c < kQComponents; ++c) out[2 * c] = r[c], out[2 * c + 1] = i[c];
+  for (std::size_t c = 0; c < kQComponents; ++c) out[2 * c] = r[c], out[2 * c + 1] = i[c];
 }
 
 // With row phase a + ib and kx phase c + id: (a+ib)(c+id) = (ac - bd) + i(ad + bc) is the
 // +kx phase, (a+ib)(c-id) = (ac + bd) + i(bc - ad) the -kx one. Sums q_c ac, q_c bd, q_c ad,
 // q_c bc over bodies, then both results: plus/minus[2c] real, [2c+1] imaginary part.
-void pair_sums(const double *__restrict a, const double *__restrict b,
-               const double *__restrict c, const double *__restrict d,
-               const double *__restrict q, std::size_t n, double *plus, double *minus) {
+void pair_sums(const double *__restrict a, const double *__restrict b, const double *__restrict c,
+               const double *__restrict d, const double *__restrict q, std::size_t n, double *plus,
+               double *minus) {
   const double *q0 = q, *q1 = q + kChunk, *q2 = q + 2 * kChunk, *q3 = q + 3 * kChunk,
                *q4 = q + 4 * kChunk;
-  double ac0 = 0, ac1 = 0, ac2 = 0, ac3 = 0, ac4 = 0, bd0 = 0, bd1 = 0, bd2 = 0, bd3 = 0,
-         bd4 = 0, ad0 = 0, ad1 = 0, ad2 = 0, ad3 = 0, ad4 = 0, bc0 = 0, bc1 = 0, bc2 = 0,
-         bc3 = 0, bc4 = 0;
+  double ac0 = 0, ac1 = 0, ac2 = 0, ac3 = 0, ac4 = 0, bd0 = 0, bd1 = 0, bd2 = 0, bd3 = 0, bd4 = 0,
+         ad0 = 0, ad1 = 0, ad2 = 0, ad3 = 0, ad4 = 0, bc0 = 0, bc1 = 0, bc2 = 0, bc3 = 0, bc4 = 0;
 #pragma omp simd reduction(+ : ac0, ac1, ac2, ac3, ac4, bd0, bd1, bd2, bd3, bd4, ad0, ad1, \
                                ad2, ad3, ad4, bc0, bc1, bc2, bc3, bc4)
   for (std::size_t j = 0; j < n; ++j) {
@@ -131,7 +128,7 @@ void pair_sums(const double *__restrict a, const double *__restrict b,
   }
   const double ac[] = {ac0, ac1, ac2, ac3, ac4}, bd[] = {bd0, bd1, bd2, bd3, bd4},
                ad[] = {ad0, ad1, ad2, ad3, ad4}, bc[] = {bc0, bc1, bc2, bc3, bc4};
-  for (int k = 0; k < kQComponents; ++k) {
+  for (std::size_t k = 0; k < kQComponents; ++k) {
     plus[2 * k] = ac[k] - bd[k], plus[2 * k + 1] = ad[k] + bc[k];
     minus[2 * k] = ac[k] + bd[k], minus[2 * k + 1] = bc[k] - ad[k];
   }
@@ -156,9 +153,9 @@ void add_chunk(const Particles &p, std::size_t i0, std::size_t n, const Box &box
     q[kQyz * kChunk + j] = 1.5 * (ey[j] * ez[j]);
     const double x = ex[j], y = ey[j], z = ez[j];
     const double xx = x * x, yy = y * y, zz = z * z;
-    const double mono[15] = {xx * xx, xx * (x * y), xx * (x * z), xx * yy, xx * (y * z),
+    const double mono[15] = {xx * xx, xx * (x * y), xx * (x * z), xx * yy,      xx * (y * z),
                              xx * zz, (x * y) * yy, (x * z) * yy, (x * y) * zz, (x * z) * zz,
-                             yy * yy, yy * (y * z), yy * zz, (y * z) * zz, zz * zz};
+                             yy * yy, yy * (y * z), yy * zz,      (y * z) * zz, zz * zz};
     for (int s = 0; s < 15; ++s) m[s] += mono[s];
   }
   for (int s = 0; s < 15; ++s) partial[s] += m[s];  // a block's first 15 entries
@@ -211,15 +208,14 @@ double FourierOrderTensor::scale() const {
 
 Vec3 FourierOrderTensor::wavevector(std::size_t m) const {
   const std::array<int, 3> &k = modes[m];
-  return {kTwoPi * k[0] / box.length.x, kTwoPi * k[1] / box.length.y,
-          kTwoPi * k[2] / box.length.z};
+  return {kTwoPi * k[0] / box.length.x, kTwoPi * k[1] / box.length.y, kTwoPi * k[2] / box.length.z};
 }
 
 ComplexTensor3 FourierOrderTensor::tensor(std::size_t m) const {
   const double s = scale();
   const auto &v = sums[m];
-  const std::complex<double> xx = s * v[kQxx], yy = s * v[kQyy], xy = s * v[kQxy],
-                             xz = s * v[kQxz], yz = s * v[kQyz];
+  const std::complex<double> xx = s * v[kQxx], yy = s * v[kQyy], xy = s * v[kQxy], xz = s * v[kQxz],
+                             yz = s * v[kQyz];
   return {xx, xy, xz, xy, yy, yz, xz, yz, -(xx + yy)};
 }
 
@@ -235,8 +231,9 @@ ComplexTensor3 FourierOrderTensor::tensor_at(int kx, int ky, int kz) const {
 }
 
 std::array<double, 9> FourierOrderTensor::fourth_moment_matrix(const Vec3 &w) const {
-  // T_abcd contracted with w_c w_d; T's entry is the moment of the monomial with the same
-  // exponents (p, q, r) = numbers of x, y, z among (a, b, c, d).
+  // M_ab = sum_cd T_abcd w_c w_d, where T_abcd is the moment of the monomial x^p y^q z^r
+  // with (p, q, r) the numbers of x, y, z among (a, b, c, d); that monomial sits at
+  // (4-p)(5-p)/2 + (4-p-q) in the order (4,0,0), (3,1,0), (3,0,1), (2,2,0), ...
   const double wv[3] = {w.x, w.y, w.z};
   std::array<double, 9> out{};
   for (int a = 0; a < 3; ++a)
@@ -245,12 +242,9 @@ std::array<double, 9> FourierOrderTensor::fourth_moment_matrix(const Vec3 &w) co
         for (int d = 0; d < 3; ++d) {
           int e[3] = {0, 0, 0};
           ++e[a], ++e[b], ++e[c], ++e[d];
-          // Position of (p, q, r) in the order (4,0,0), (3,1,0), (3,0,1), (2,2,0), ...
-          const int p = e[0], qy = e[1];
-          int index = 0;
-          for (int pp = 4; pp > p; --pp) index += 5 - pp;
-          index += (4 - p) - qy;
-          out[static_cast<std::size_t>(3 * a + b)] += wv[c] * wv[d] * fourth_moments[static_cast<std::size_t>(index)];
+          const int index = (4 - e[0]) * (5 - e[0]) / 2 + (4 - e[0] - e[1]);
+          out[3 * static_cast<std::size_t>(a) + static_cast<std::size_t>(b)] +=
+              wv[c] * wv[d] * fourth_moments[static_cast<std::size_t>(index)];
         }
   return out;
 }
@@ -302,7 +296,7 @@ FourierOrderTensor fourier_order_tensor(const Particles &p, std::size_t count, c
   out.sums.resize(out.modes.size());
   for (std::size_t m = 0; m < out.modes.size(); ++m)
     for (int c = 0; c < kQComponents; ++c) {
-      const double *v = total.data() + 15 + m * kValuesPerMode + 2 * c;
+      const double *v = total.data() + 15 + m * kValuesPerMode + 2 * static_cast<std::size_t>(c);
       out.sums[m][static_cast<std::size_t>(c)] = {v[0], v[1]};
     }
   return out;
@@ -373,7 +367,8 @@ void FrankAccumulator::add_sample(const FourierOrderTensor &qk, const Vec3 &dire
   if (!std::isfinite(S)) problems += " S not finite;";
   bool finite = true;
   for (const auto &mode : qk.sums)
-    for (const auto &c : mode) finite = finite && std::isfinite(c.real()) && std::isfinite(c.imag());
+    for (const auto &c : mode)
+      finite = finite && std::isfinite(c.real()) && std::isfinite(c.imag());
   if (!finite) problems += " Qk not finite;";
   if (!problems.empty()) throw std::invalid_argument("FrankAccumulator::add_sample:" + problems);
 
@@ -405,11 +400,9 @@ void FrankAccumulator::add_sample(const FourierOrderTensor &qk, const Vec3 &dire
     const Vec3 e1 = k1sq > 1e-24 * norm2(k) ? k_perp * (1.0 / std::sqrt(k1sq)) : e1_parallel;
     const Vec3 e2 = cross(n, e1);
     const ComplexTensor3 q = qk.tensor(m);
-    std::complex<double> qn[3];
-    for (int a = 0; a < 3; ++a)
-      qn[a] = q[static_cast<std::size_t>(3 * a)] * n.x +
-              q[static_cast<std::size_t>(3 * a + 1)] * n.y +
-              q[static_cast<std::size_t>(3 * a + 2)] * n.z;
+    std::complex<double> qn[3];  // Qk n
+    for (std::size_t a = 0; a < 3; ++a)
+      qn[a] = q[3 * a] * n.x + q[3 * a + 1] * n.y + q[3 * a + 2] * n.z;
     const double q13 = std::norm(e1.x * qn[0] + e1.y * qn[1] + e1.z * qn[2]);
     const double q23 = std::norm(e2.x * qn[0] + e2.y * qn[1] + e2.z * qn[2]);
     const FrankBinKey key{static_cast<int>(std::floor(k1sq * inv_width)),
@@ -445,7 +438,8 @@ FrankAccumulator &FrankAccumulator::operator+=(const FrankAccumulator &o) {
   if (o.kmax_ != kmax_) problems += " kmax differs;";
   if (o.config_.bin_width != config_.bin_width) problems += " bin width differs;";
   if (!problems.empty()) throw std::invalid_argument("FrankAccumulator merge:" + problems);
-  blocks_.insert(blocks_.end(), o.blocks_.begin(), o.blocks_.end());
+  const std::vector<FrankBlock> appended = o.blocks_;  // a copy: o may be *this
+  blocks_.insert(blocks_.end(), appended.begin(), appended.end());
   config_.samples_per_block = std::max(config_.samples_per_block, o.config_.samples_per_block);
   while (static_cast<int>(blocks_.size()) > config_.max_blocks) compact();
   return *this;
@@ -485,23 +479,25 @@ nlohmann::json FrankAccumulator::to_json() const {
           {"bin_width", config_.bin_width},
           {"samples_per_block", config_.samples_per_block},
           {"max_blocks", config_.max_blocks},
-          {"bin_columns", {"i1", "i3", "count", "k1sq", "k3sq", "k1sq_sq", "k1sq_k3sq", "k3sq_sq",
-                           "q13", "q13sq", "q23", "q23sq", "self13", "self23"}},
+          {"bin_columns",
+           {"i1", "i3", "count", "k1sq", "k3sq", "k1sq_sq", "k1sq_k3sq", "k3sq_sq", "q13", "q13sq",
+            "q23", "q23sq", "self13", "self23"}},
           {"blocks", std::move(blocks)}};
 }
 
 FrankAccumulator FrankAccumulator::from_json(const nlohmann::json &j) {
   try {
-    if (j.at("format").get<std::string>() != kFormat || j.at("version").get<int>() != kFormatVersion)
+    if (j.at("format").get<std::string>() != kFormat ||
+        j.at("version").get<int>() != kFormatVersion)
       throw std::invalid_argument("not a version-1 hardrod.frank_accumulator");
     const auto &bl = j.at("box");
     FrankAccumulatorConfig config;
     config.bin_width = j.at("bin_width").get<double>();
     config.samples_per_block = j.at("samples_per_block").get<long long>();
     config.max_blocks = j.at("max_blocks").get<int>();
-    FrankAccumulator acc(Box{{bl.at(0).get<double>(), bl.at(1).get<double>(),
-                              bl.at(2).get<double>()}},
-                         j.at("bodies").get<long long>(), j.at("kmax").get<int>(), config);
+    FrankAccumulator acc(
+        Box{{bl.at(0).get<double>(), bl.at(1).get<double>(), bl.at(2).get<double>()}},
+        j.at("bodies").get<long long>(), j.at("kmax").get<int>(), config);
     for (const auto &jb : j.at("blocks")) {
       FrankBlock b;
       b.samples = jb.at("samples").get<long long>();

@@ -45,8 +45,8 @@ struct FourierOrderTensor {
   std::array<double, 15> fourth_moments{};
 
   std::size_t size() const { return modes.size(); }
-  double scale() const;                  // V / N (NaN without bodies)
-  Vec3 wavevector(std::size_t m) const;  // 2 pi (kx/Lx, ky/Ly, kz/Lz) of mode m
+  double scale() const;                        // V / N (NaN without bodies)
+  Vec3 wavevector(std::size_t m) const;        // 2 pi (kx/Lx, ky/Ly, kz/Lz) of mode m
   ComplexTensor3 tensor(std::size_t m) const;  // Qk of mode m, scaled by V/N
   // Qk at any lattice vector -kmax < k_a < kmax, k != 0 (conjugated from the stored half).
   ComplexTensor3 tensor_at(int kx, int ky, int kz) const;
@@ -74,13 +74,13 @@ FourierOrderTensor fourier_order_tensor(const Particles &p, std::size_t count, c
 // Serial (about 3429 modes per sample: microseconds next to the Fourier sum itself).
 
 struct FrankBin {
-  long long count = 0;          // k vectors added (over samples)
-  double k1sq = 0, k3sq = 0;    // sums of k1^2, k3^2: the fit uses the bin means
+  long long count = 0;        // k vectors added (over samples)
+  double k1sq = 0, k3sq = 0;  // sums of k1^2, k3^2: the fit uses the bin means
   // Sums of k1^4, k1^2 k3^2, k3^4: the spread of (k1^2, k3^2) within the bin, from which
   // the fit corrects E for averaging 1/E over a bin of finite width.
   double k1sq_sq = 0, k1sq_k3sq = 0, k3sq_sq = 0;
-  double q13 = 0, q13sq = 0;    // sums of |Q_13|^2 and |Q_13|^4
-  double q23 = 0, q23sq = 0;    // the same for Q_23
+  double q13 = 0, q13sq = 0;      // sums of |Q_13|^2 and |Q_13|^4
+  double q23 = 0, q23sq = 0;      // the same for Q_23
   double self13 = 0, self23 = 0;  // sums of the uncorrelated-rod part of |Q_13|^2, |Q_23|^2
   FrankBin &operator+=(const FrankBin &o);
   FrankBin &operator-=(const FrankBin &o);
@@ -99,7 +99,7 @@ struct FrankBlock {
 struct FrankAccumulatorConfig {
   double bin_width = 0.01;  // in k1^2 and k3^2, units D^-2
   long long samples_per_block = 20;
-  int max_blocks = 64;  // even, >= 2
+  int max_blocks = 32;  // even, >= 2
 };
 
 class FrankAccumulator {

@@ -1,9 +1,9 @@
-// Frank constants from binned <|Qk_m3|^2> (see the header). Why the options are what they
-// are: a white background B (molecular disorder, i = j terms) adds to <|Q|^2>, so
-// 1/E_obs = 1/E + B/c with c = (9/4) S^2 V kT, i.e. E_obs = E - (B/c) E^2 + ...: the slope at
-// k = 0 is unbiased, but a plane fitted over k^2 < 0.1 reads a secant and comes out low by
-// about (B/c) E there. The cubic absorbs the E^2 and E^3 terms (paper's route); subtracting
-// the self part of B (option) removes it where positions are uncorrelated.
+// Frank constants from binned <|Qk_m3|^2> (see the header). A white background B (molecular
+// disorder, the i = j terms) adds to <|Q|^2>: 1/E_obs = 1/E + B/c, c = (9/4) S^2 V kT, so
+// E_obs = E - (B/c) E^2 + ...: the slope at k = 0 is unbiased, but a plane over k^2 < 0.1
+// reads a secant, low by ~ (B/c) E there. The cubic absorbs the E^2, E^3 terms (the paper's
+// route); subtract_self_term removes the self part of B. Per bin, E is corrected to second
+// order for the bias of 1/<|Q|^2> and for the spread of (k1^2, k3^2) within the bin.
 #include "kernels/frank_fit.hpp"
 
 #include <Eigen/Dense>
@@ -20,38 +20,59 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Point {
-  double x, y;             // mean k1^2, k3^2 of the bin
-  double vx, cxy, vy;      // (co)variances of k1^2, k3^2 within the bin
-  double E;                // c / <|Q_m3|^2>, ratio bias removed
-  double rel;              // relative error of <|Q_m3|^2>, hence of E
+  double x, y;         // mean k1^2, k3^2 of the bin
+  double vx, cxy, vy;  // (co)variances of k1^2, k3^2 within the bin
+  double E;            // c / <|Q_m3|^2>, ratio bias removed
   long long count;
+  double cv2;         // pooled squared coefficient of variation of |Q_m3|^2 (1 if Gaussian)
+  double background;  // subtracted self term / c (0 without subtraction)
+  // Relative error of the bin's E when E_model is the truth: that of the mean of |Q|^2,
+  // sqrt(cv2 / count) (|Q|^2 / signal), with |Q|^2 / signal = 1 + background E_model.
+  double rel(double E_model) const {
+    return std::sqrt(cv2 / static_cast<double>(count)) * (1.0 + background * E_model);
+  }
 };
 
 // E_m3 per bin of `data` (m = 1 for Q_13, 2 for Q_23). With `allowed`, only those bins
 // (the replicas of an error estimate use the bins of the central fit, so that a bin does
 // not drop in and out of the fit with the noise of its count).
-std::vector<Point> e_points(const FrankBlock &data, int m, double volume,
-                            const FrankFitOptions &o, const std::set<FrankBinKey> *allowed) {
+// Bin errors use one coefficient of variation pooled over the bins rather than each bin's
+// own: a bin's sample variance grows with its own outliers, so per-bin errors would give
+// bins whose mean fluctuated up (E down) less weight and bias K up.
+std::vector<Point> e_points(const FrankBlock &data, int m, double volume, const FrankFitOptions &o,
+                            const std::set<FrankBinKey> *allowed) {
   std::vector<Point> points;
   if (data.samples <= 0) return points;
   const double c = 2.25 * (data.sum_S2 / static_cast<double>(data.samples)) * volume * o.kT;
+  double cv2_sum = 0.0, dof = 0.0;
+  std::vector<std::array<double, 2>> mean_self;  // per accepted bin
   for (const auto &[key, bin] : data.bins) {
-    if (allowed ? !allowed->contains(key) || bin.count < 2 : bin.count < std::max(2LL, o.min_bin_count))
+    if (allowed ? !allowed->contains(key) || bin.count < 2
+                : bin.count < std::max(2LL, o.min_bin_count))
       continue;
     const double n = static_cast<double>(bin.count);
-    const double sum = m == 1 ? bin.q13 : bin.q23, sumsq = m == 1 ? bin.q13sq : bin.q23sq;
-    const double self = m == 1 ? bin.self13 : bin.self23;
-    const double mean = sum / n;
-    const double var = std::max(0.0, (sumsq / n - mean * mean) * (n / (n - 1.0)));
-    const double signal = o.subtract_self_term ? mean - self / n : mean;
-    const double rel = std::sqrt(var / n) / signal;
-    if (!(signal > 0.0) || !(rel > 0.0) || !std::isfinite(rel)) continue;  // no usable error
+    const double mean = (m == 1 ? bin.q13 : bin.q23) / n;
+    const double meansq = (m == 1 ? bin.q13sq : bin.q23sq) / n;
+    const double self = o.subtract_self_term ? (m == 1 ? bin.self13 : bin.self23) / n : 0.0;
+    if (!(mean - self > 0.0) || !std::isfinite(mean)) continue;  // no signal left
     const double x = bin.k1sq / n, y = bin.k3sq / n;
-    // E[1/mean] = (1/mu)(1 + rel^2 + ...): remove the ratio bias to second order.
-    points.push_back({x, y, std::max(0.0, bin.k1sq_sq / n - x * x),
-                      bin.k1sq_k3sq / n - x * y, std::max(0.0, bin.k3sq_sq / n - y * y),
-                      c / signal * (1.0 - rel * rel), rel, bin.count});
+    points.push_back({x, y, std::max(0.0, bin.k1sq_sq / n - x * x), bin.k1sq_k3sq / n - x * y,
+                      std::max(0.0, bin.k3sq_sq / n - y * y), c / (mean - self), bin.count, 0.0,
+                      self / c});
+    mean_self.push_back({mean, self});
+    cv2_sum += std::max(0.0, meansq - mean * mean) * (n / (n - 1.0)) / (mean * mean) * (n - 1.0);
+    dof += n - 1.0;
   }
+  const double cv2 = dof > 0.0 ? cv2_sum / dof : kNaN;
+  for (std::size_t b = 0; b < points.size(); ++b) {
+    Point &p = points[b];
+    p.cv2 = cv2;
+    // E[1/mean] = (1/mu)(1 + rel^2 + ...): remove the ratio bias to second order.
+    const double rel = std::sqrt(cv2 / static_cast<double>(p.count)) * mean_self[b][0] /
+                       (mean_self[b][0] - mean_self[b][1]);
+    p.E *= 1.0 - rel * rel;
+  }
+  if (!(cv2 > 0.0)) points.clear();  // no spread at all: nothing to weight with
   return points;
 }
 
@@ -76,8 +97,7 @@ struct ModelValues {
 // its members, E_mean (1 - var(E)/E_mean^2) to second order, var(E) = g^T C g with g the
 // model's gradient and C the bin's (k1^2, k3^2) covariance. Columns are scaled by the
 // largest x, y for conditioning.
-ModelValues fit_model(const std::vector<Point> &all, bool cubic, double max_k2,
-                      int iterations) {
+ModelValues fit_model(const std::vector<Point> &all, bool cubic, double max_k2, int iterations) {
   std::vector<Point> pts;
   double xs = 0.0, ys = 0.0;
   for (const Point &p : all)
@@ -107,21 +127,25 @@ ModelValues fit_model(const std::vector<Point> &all, bool cubic, double max_k2,
   model = E;
   target = E;
   for (int it = 0; it < std::max(1, iterations); ++it) {
-    for (Eigen::Index b = 0; b < n; ++b) w(b) = 1.0 / (model(b) * pts[static_cast<std::size_t>(b)].rel);
+    for (Eigen::Index b = 0; b < n; ++b)
+      w(b) = 1.0 / (model(b) * pts[static_cast<std::size_t>(b)].rel(model(b)));
     coef = (w.asDiagonal() * A).colPivHouseholderQr().solve(w.cwiseProduct(target));
     const Eigen::VectorXd fitted = A * coef, gx = Ax * coef, gy = Ay * coef;
     for (Eigen::Index b = 0; b < n; ++b) {
       const Point &p = pts[static_cast<std::size_t>(b)];
       const bool usable = fitted(b) > 0.0 && std::isfinite(fitted(b));
       model(b) = usable ? fitted(b) : E(b);
-      const double spread = gx(b) * gx(b) * p.vx + 2.0 * gx(b) * gy(b) * p.cxy + gy(b) * gy(b) * p.vy;
+      const double spread =
+          gx(b) * gx(b) * p.vx + 2.0 * gx(b) * gy(b) * p.cxy + gy(b) * gy(b) * p.vy;
       target(b) = usable ? E(b) * (1.0 + spread / (model(b) * model(b))) : E(b);
     }
   }
-  const Eigen::VectorXd residual = (target - A * coef).cwiseProduct(w);
+  const Eigen::VectorXd fitted = A * coef;
+  double chi2 = 0.0;
+  for (Eigen::Index b = 0; b < n; ++b) chi2 += std::pow((target(b) - fitted(b)) * w(b), 2);
   out.Km = coef(0) / xs;
   out.K3 = coef(1) / ys;
-  out.chi2 = residual.squaredNorm() / static_cast<double>(n - np);
+  out.chi2 = chi2 / static_cast<double>(n - np);
   return out;
 }
 
@@ -174,6 +198,8 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
   result.samples = total.samples;
   result.runs = static_cast<int>(runs.size());
   result.mean_S2 = total.samples > 0 ? total.sum_S2 / static_cast<double>(total.samples) : kNaN;
+  result.kT = options.kT;
+  result.self_term_subtracted = options.subtract_self_term;
   const DataFit central = fit_data(total, volume, options, nullptr);
   std::set<FrankBinKey> allowed;  // bins of the central fit, for the replicas
   for (const auto &[key, bin] : total.bins)
@@ -200,6 +226,7 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
   Values errors;
   for (std::size_t v = 0; v < 8; ++v) {
     std::vector<double> r;
+    r.reserve(replicas.size());
     for (const Values &rep : replicas) r.push_back(rep[v]);
     errors[v] = replica_error(r, jackknife);
   }
@@ -219,6 +246,7 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
       return w13 * v[offset + 1] + (1.0 - w13) * v[offset + 3];
     };
     std::vector<double> r;
+    r.reserve(replicas.size());
     for (const Values &rep : replicas) r.push_back(combine(rep));
     fit.K3 = {combine(central.values), replica_error(r, jackknife)};
   };
@@ -227,7 +255,7 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
 
   for (int m = 1; m <= 2; ++m)
     for (const Point &p : e_points(total, m, volume, options, nullptr))
-      (m == 1 ? result.E13 : result.E23).push_back({p.x, p.y, p.E, p.E * p.rel, p.count});
+      (m == 1 ? result.E13 : result.E23).push_back({p.x, p.y, p.E, p.E * p.rel(p.E), p.count});
   return result;
 }
 
@@ -237,10 +265,14 @@ nlohmann::json to_json(const FrankResult &r) {
     return nlohmann::json{{"value", num(e.value)}, {"error", num(e.error)}};
   };
   auto model = [&](const FrankModelFit &f) {
-    return nlohmann::json{{"K1", est(f.K1)},         {"K2", est(f.K2)},
-                          {"K3", est(f.K3)},         {"K3_from_E13", est(f.K3_13)},
-                          {"K3_from_E23", est(f.K3_23)}, {"bins_E13", f.bins_13},
-                          {"bins_E23", f.bins_23},   {"chi2_per_dof_E13", num(f.chi2_13)},
+    return nlohmann::json{{"K1", est(f.K1)},
+                          {"K2", est(f.K2)},
+                          {"K3", est(f.K3)},
+                          {"K3_from_E13", est(f.K3_13)},
+                          {"K3_from_E23", est(f.K3_23)},
+                          {"bins_E13", f.bins_13},
+                          {"bins_E23", f.bins_23},
+                          {"chi2_per_dof_E13", num(f.chi2_13)},
                           {"chi2_per_dof_E23", num(f.chi2_23)}};
   };
   auto table = [&](const std::vector<FrankBinE> &bins) {
@@ -251,6 +283,8 @@ nlohmann::json to_json(const FrankResult &r) {
   return {{"planar", model(r.planar)},
           {"cubic", model(r.cubic)},
           {"mean_S2", num(r.mean_S2)},
+          {"kT", r.kT},
+          {"self_term_subtracted", r.self_term_subtracted},
           {"samples", r.samples},
           {"runs", r.runs},
           {"replicas", r.replicas},

@@ -26,10 +26,10 @@ struct FrankFitOptions {
   // (e_i.e_m)^2 (e_i.n)^2, a k-independent white background from molecular disorder.
   // Off by default: the paper's estimator. See frank_fit.cpp for when it helps.
   bool subtract_self_term = false;
-  // Weighted least squares, weight 1 / (E_model rel)^2 with rel the bin's relative error
-  // of <|Q|^2>; E_model is the previous iteration's fit (the data on the first), so that a
-  // bin's weight does not follow its own noise (which would bias K low by ~ 2 / count).
-  // The iterations also correct each bin for its finite width (frank_fit.cpp).
+  // Weighted least squares with weight 1 / (E_model rel)^2, rel = sqrt(cv^2 / count) the
+  // relative error of the bin's <|Q|^2> (cv^2 pooled over bins, 1 for Gaussian modes) and
+  // E_model the previous iteration's fit (the data on the first), so that no bin's weight
+  // follows its own noise. The iterations also correct each bin for its finite width.
   int reweighting_iterations = 4;
 };
 
@@ -40,10 +40,10 @@ struct FrankEstimate {
 
 // One model (plane or cubic) fitted to E_13 and E_23.
 struct FrankModelFit {
-  FrankEstimate K1, K2;    // from E_13 and E_23
-  FrankEstimate K3;        // inverse-variance weighted mean of the two below
+  FrankEstimate K1, K2;  // from E_13 and E_23
+  FrankEstimate K3;      // inverse-variance weighted mean of the two below
   FrankEstimate K3_13, K3_23;
-  int bins_13 = 0, bins_23 = 0;  // bins in the fit (merged data)
+  int bins_13 = 0, bins_23 = 0;                               // bins in the fit (merged data)
   double chi2_13 = std::numeric_limits<double>::quiet_NaN();  // per degree of freedom
   double chi2_23 = std::numeric_limits<double>::quiet_NaN();
 };
@@ -59,6 +59,8 @@ struct FrankResult {
   FrankModelFit planar, cubic;
   std::vector<FrankBinE> E13, E23;
   double mean_S2 = std::numeric_limits<double>::quiet_NaN();
+  double kT = 1.0;                    // as fitted (FrankFitOptions)
+  bool self_term_subtracted = false;  // as fitted (FrankFitOptions)
   long long samples = 0;
   int runs = 0;
   int replicas = 0;          // runs, or blocks of the single run, the errors come from

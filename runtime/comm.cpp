@@ -150,6 +150,15 @@ std::vector<char> Communicator::gather(const std::string &name, const std::vecto
   return all;
 }
 
+void Communicator::broadcast(const std::string &name, std::vector<char> &data) {
+  if (size_ == 1) return;
+  TrafficCounter &t = traffic_[name];
+  ++t.calls;
+  MPI_Bcast(data.data(), static_cast<int>(data.size()), MPI_BYTE, 0, MPI_COMM_WORLD);
+  t.messages += 1;
+  t.bytes += static_cast<long long>(data.size());
+}
+
 void Communicator::barrier() { MPI_Barrier(MPI_COMM_WORLD); }
 
 }  // namespace hardrod

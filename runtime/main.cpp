@@ -34,6 +34,9 @@ int main(int argc, char **argv) {
   run->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
       ->check(CLI::PositiveNumber);
   run->add_flag("--quiet", quiet, "no progress output");
+  run->add_flag("--verify", options.verify,
+                "after every step check that every body is owned once and every shadow equals "
+                "its owner (slow; for debugging)");
   std::string grid;
   run->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
       ->check([](const std::string &g) {

@@ -204,6 +204,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   try {
     while (sim.current_step() < total_steps) {
       sim.step();
+      if (options.verify) sim.verify_bodies();
       const long long step = sim.current_step();
       if (step == scene.equilibration_steps) {
         take_sample(false);  // closes equilibration; production intervals start clean

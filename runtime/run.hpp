@@ -18,6 +18,7 @@ struct RunOptions {
   bool quiet = false;      // no progress lines (tests)
   int progress = -1;       // -1: live line if stdout is a terminal; 0: plain lines; 1: live
   ParallelOptions parallel;  // process grid
+  bool verify = false;       // check body bookkeeping after every step (slow; debugging)
 };
 
 // Runs the scene and returns the summary (also written to DIR/summary.json by rank 0;

@@ -427,6 +427,62 @@ Observation Simulation::observe() {
   return o;
 }
 
+void Simulation::verify_bodies() {
+  // Owned bodies: gathered at rank 0, which checks 0..n-1 once each.
+  std::vector<char> mine;
+  for (std::size_t i = 0; i < owned_; ++i) pack(mine, particles_.id[i]);
+  const std::vector<char> all = comm_.gather("verify", mine);
+  std::string problem;
+  if (comm_.is_root()) {
+    std::vector<std::int64_t> ids;
+    for (std::size_t off = 0; off < all.size();) ids.push_back(unpack<std::int64_t>(all, off));
+    std::sort(ids.begin(), ids.end());
+    if (static_cast<long long>(ids.size()) != scene_.n)
+      problem = fmt::format("{} bodies owned in total, expected {}", ids.size(), scene_.n);
+    for (std::size_t k = 0; problem.empty() && k < ids.size(); ++k)
+      if (ids[k] != static_cast<std::int64_t>(k))
+        problem = fmt::format("id {} is {}", ids[k], k > 0 && ids[k] == ids[k - 1]
+                                                          ? "owned twice"
+                                                          : "out of place (a body was lost)");
+  }
+  // Shadows: each rank checks its copies against their owners' bodies, gathered at rank 0
+  // and sent back to everyone as one block (debug only: this moves every body).
+  std::vector<char> owned_state;
+  for (std::size_t i = 0; i < owned_; ++i) pack_body(owned_state, particles_, i);
+  std::vector<char> everything = comm_.gather("verify", owned_state);
+  long long size = static_cast<long long>(everything.size());
+  size = comm_.sum("verify", comm_.is_root() ? size : 0LL);
+  everything.resize(static_cast<std::size_t>(size));
+  comm_.broadcast("verify", everything);
+  Particles reference;
+  for (std::size_t off = 0; off < everything.size();) unpack_body(everything, off, reference);
+  std::unordered_map<std::int64_t, std::size_t> where;
+  for (std::size_t i = 0; i < reference.size(); ++i) where[reference.id[i]] = i;
+  long long mismatches = 0;
+  for (std::size_t i = owned_; i < particles_.size(); ++i) {
+    const auto it = where.find(particles_.id[i]);
+    if (it == where.end()) {
+      ++mismatches;
+      continue;
+    }
+    const std::size_t k = it->second;
+    for (auto [a, b] : {std::pair{&particles_.x, &reference.x}, {&particles_.y, &reference.y},
+                        {&particles_.z, &reference.z}, {&particles_.ex, &reference.ex},
+                        {&particles_.vx, &reference.vx}, {&particles_.wz, &reference.wz}})
+      if ((*a)[i] != (*b)[k]) {
+        ++mismatches;
+        break;
+      }
+  }
+  mismatches = comm_.sum("verify", mismatches);
+  if (problem.empty() && mismatches > 0)
+    problem = fmt::format("{} shadow copies differ from their owners' bodies", mismatches);
+  const long long failed = comm_.sum("verify", problem.empty() ? 0LL : 1LL);
+  if (failed > 0)
+    throw std::logic_error(fmt::format("step {}: body bookkeeping broken: {}", step_,
+                                       problem.empty() ? "(see rank 0)" : problem));
+}
+
 Particles Simulation::gather_bodies() {
   std::vector<char> mine;
   for (std::size_t i = 0; i < owned_; ++i) pack_body(mine, particles_, i);

@@ -93,6 +93,9 @@ class Simulation {
   double temperature();
   // Relative kinetic-energy error each thermostat application found (drift record).
   const std::vector<double> &thermostat_corrections() const { return thermostat_corrections_; }
+  // Collective, for debugging and tests: every id 0..n-1 is owned by exactly one rank, and
+  // every shadow is a bit-identical copy of its owner's body. Throws std::logic_error.
+  void verify_bodies();
   // Collective: all bodies in id order (rank 0 only; others get an empty set).
   Particles gather_bodies();
   // Collective: FNV-1a hash of ids, positions, axes, velocities and angular velocities in

@@ -25,8 +25,8 @@ Particles paper_like_bodies(const Box &box, std::size_t n) {
   p.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     p.id[i] = static_cast<std::int64_t>(i);
-    p.set_position(i, {box.length.x * unit(rng), box.length.y * unit(rng),
-                       box.length.z * unit(rng)});
+    p.set_position(i,
+                   {box.length.x * unit(rng), box.length.y * unit(rng), box.length.z * unit(rng)});
     const Vec3 e{1.0, tilt(rng), tilt(rng)};
     p.set_axis(i, e * (1.0 / norm(e)));
   }

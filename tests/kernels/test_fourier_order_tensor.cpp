@@ -9,11 +9,12 @@
 #include <cmath>
 #include <complex>
 #include <cstdint>
-#include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "kernels/fourier_order_tensor.hpp"
@@ -51,8 +52,7 @@ Particles random_bodies(std::size_t n, const Box &box, const Vec3 &towards, std:
 // Direct definition, with the lattice vector's components as integers.
 ComplexTensor3 direct_qk(const Particles &p, const Box &box, int kx, int ky, int kz) {
   const double two_pi = 2.0 * std::numbers::pi;
-  const Vec3 k{two_pi * kx / box.length.x, two_pi * ky / box.length.y,
-               two_pi * kz / box.length.z};
+  const Vec3 k{two_pi * kx / box.length.x, two_pi * ky / box.length.y, two_pi * kz / box.length.z};
   ComplexTensor3 q{};
   for (std::size_t i = 0; i < p.size(); ++i) {
     const std::complex<double> phase = std::polar(1.0, dot(k, p.position(i)));
@@ -171,6 +171,126 @@ TEST(FourierOrderTensor, RejectsBadArguments) {
   EXPECT_THROW(fourier_order_tensor(p, 10, Box{}, 1), std::invalid_argument);
   EXPECT_THROW(fourier_order_tensor(p, 11, Box{}, 3), std::invalid_argument);
   EXPECT_THROW(fourier_order_tensor(p, 10, Box{{1.0, 0.0, 1.0}}, 3), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------
+// FrankAccumulator
+
+// One body at the origin: Qk = V q for every k, so every rotated component is known.
+struct SingleBody {
+  Box box{{10.0, 10.0, 10.0}};
+  double theta = 0.3;
+  Vec3 axis{std::sin(0.3), 0.0, std::cos(0.3)};
+  FourierOrderTensor qk;
+  SingleBody() {
+    Particles p;
+    p.resize(1);
+    p.set_axis(0, axis);
+    qk = fourier_order_tensor(p, 1, box, 2);
+  }
+};
+
+TEST(FrankAccumulator, RotatesIntoTheDirectorFrameAndBins) {
+  const SingleBody one;
+  const Vec3 n{0.0, 0.0, 1.0};
+  FrankAccumulatorConfig config;
+  config.bin_width = 0.05;
+  FrankAccumulator acc(one.box, 1, 2, config);
+  acc.add_sample(one.qk, 2.0 * n, 0.9);  // the director is normalised
+  // Expected per bin: e1 = k_perp / |k_perp| (x for k parallel to n: the lab axis least
+  // aligned with z, first on ties), e2 = n x e1, Q_m3 = V (3/2) (a.e_m)(a.n).
+  std::map<FrankBinKey, FrankBin> want;
+  const double V = one.box.volume(), two_pi = 2.0 * std::numbers::pi;
+  for (const auto &k : half_space_modes(2)) {
+    const Vec3 kv = (two_pi / 10.0) * Vec3{double(k[0]), double(k[1]), double(k[2])};
+    const Vec3 kp{kv.x, kv.y, 0.0};
+    const Vec3 e1 = norm(kp) > 0 ? kp * (1.0 / norm(kp)) : Vec3{1, 0, 0};
+    const Vec3 e2 = cross(n, e1);
+    const double q13 = std::pow(V * 1.5 * dot(one.axis, e1) * dot(one.axis, n), 2);
+    const double q23 = std::pow(V * 1.5 * dot(one.axis, e2) * dot(one.axis, n), 2);
+    FrankBin &b = want[{static_cast<int>(std::floor(norm2(kp) / 0.05)),
+                        static_cast<int>(std::floor(kv.z * kv.z / 0.05))}];
+    ++b.count;
+    b.k1sq += norm2(kp), b.k3sq += kv.z * kv.z;
+    b.q13 += q13, b.q23 += q23;
+    b.self13 += q13, b.self23 += q23;  // one body: all of |Q|^2 is the self term
+  }
+  ASSERT_EQ(acc.blocks().size(), 1u);
+  const FrankBlock &block = acc.blocks()[0];
+  EXPECT_EQ(block.samples, 1);
+  EXPECT_DOUBLE_EQ(block.sum_S2, 0.81);
+  ASSERT_EQ(block.bins.size(), want.size());
+  const double scale = V * V;
+  for (const auto &[key, w] : want) {
+    ASSERT_TRUE(block.bins.contains(key));
+    const FrankBin &got = block.bins.at(key);
+    EXPECT_EQ(got.count, w.count);
+    EXPECT_NEAR(got.k1sq, w.k1sq, 1e-14);
+    EXPECT_NEAR(got.k3sq, w.k3sq, 1e-14);
+    EXPECT_NEAR(got.q13, w.q13, 1e-12 * scale);
+    EXPECT_NEAR(got.q23, w.q23, 1e-12 * scale);
+    EXPECT_NEAR(got.self13, w.self13, 1e-12 * scale);
+    EXPECT_NEAR(got.self23, w.self23, 1e-12 * scale);
+  }
+}
+
+TEST(FrankAccumulator, BlocksCloseCompactAndMergeOnlyWhenCompatible) {
+  const SingleBody one;
+  FrankAccumulatorConfig config;
+  config.samples_per_block = 2;
+  config.max_blocks = 4;
+  FrankAccumulator a(one.box, 1, 2, config), b(one.box, 1, 2, config);
+  auto sizes = [](const FrankAccumulator &acc) {
+    std::vector<long long> s;
+    for (const FrankBlock &blk : acc.blocks()) s.push_back(blk.samples);
+    return s;
+  };
+  for (int t = 0; t < 9; ++t) a.add_sample(one.qk, {0, 0, 1}, 0.8);
+  EXPECT_EQ(sizes(a), (std::vector<long long>{4, 4, 1}));  // 4 full blocks of 2 merged
+  EXPECT_EQ(a.config().samples_per_block, 4);
+  for (int t = 0; t < 3; ++t) b.add_sample(one.qk, {0, 0, 1}, 0.8);
+  a += b;  // [4, 4, 1, 2, 1] exceeds 4 blocks: pairs merge
+  EXPECT_EQ(sizes(a), (std::vector<long long>{8, 3, 1}));
+  EXPECT_EQ(a.samples(), 12);
+  EXPECT_EQ(a.total().bins.begin()->second.count, 12 * b.total().bins.begin()->second.count / 3);
+
+  FrankAccumulatorConfig other_width = config;
+  other_width.bin_width = 0.02;
+  FrankAccumulator c(Box{{10.0, 10.0, 11.0}}, 2, 3, other_width);
+  try {
+    a += c;
+    ADD_FAILURE() << "merged incompatible accumulators";
+  } catch (const std::invalid_argument &e) {
+    const std::string what = e.what();
+    for (const char *key : {"box", "body count", "kmax", "bin width"})
+      EXPECT_NE(what.find(key), std::string::npos) << what;
+  }
+  EXPECT_THROW(c.add_sample(one.qk, {0, 0, 1}, 0.8), std::invalid_argument);
+  EXPECT_THROW(a.add_sample(one.qk, {0, 0, 0}, 0.8), std::invalid_argument);
+  EXPECT_THROW(a.add_sample(one.qk, {0, 0, 1}, std::nan("")), std::invalid_argument);
+  FourierOrderTensor poisoned = one.qk;
+  poisoned.sums[3][kQxz] = {std::nan(""), 0.0};
+  EXPECT_THROW(a.add_sample(poisoned, {0, 0, 1}, 0.8), std::invalid_argument);
+  EXPECT_EQ(a.samples(), 12);  // nothing was added by the failed calls
+  EXPECT_THROW(FrankAccumulator(one.box, 1, 2, FrankAccumulatorConfig{0.01, 1, 3}),
+               std::invalid_argument);
+}
+
+TEST(FrankAccumulator, JsonRoundTripIsExactAndMalformedInputIsRejected) {
+  const SingleBody one;
+  FrankAccumulator a(one.box, 1, 2);
+  a.add_sample(one.qk, {0.1, 0.2, 1.0}, 0.7);
+  a.add_sample(one.qk, {0.0, 0.3, 1.0}, 0.75);
+  const nlohmann::json j = a.to_json();
+  const FrankAccumulator back = FrankAccumulator::from_json(nlohmann::json::parse(j.dump()));
+  EXPECT_EQ(back.to_json(), j);
+  EXPECT_EQ(back.samples(), 2);
+  EXPECT_THROW(FrankAccumulator::from_json(nlohmann::json{{"format", "something else"}}),
+               std::invalid_argument);
+  nlohmann::json broken = j;
+  broken["blocks"][0]["bins"][0].erase(0);
+  EXPECT_THROW(FrankAccumulator::from_json(broken), std::invalid_argument);
+  EXPECT_THROW(FrankAccumulator::load("/nonexistent/frank.json"), std::runtime_error);
 }
 
 }  // namespace
