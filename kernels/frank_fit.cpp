@@ -6,7 +6,12 @@
 // order for the bias of 1/<|Q|^2> and for the spread of (k1^2, k3^2) within the bin.
 #include "kernels/frank_fit.hpp"
 
+// GCC 12 reports -Wmaybe-uninitialized inside its own avx512fintrin.h (_mm256_undefined_pd,
+// GCC bug 105593) for Eigen's vectorised reductions in the QR below: a false positive.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <Eigen/Dense>
+#pragma GCC diagnostic pop
 #include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>

@@ -35,6 +35,15 @@ Communicator::Communicator() {
   MPI_Comm_size(MPI_COMM_WORLD, &size_);
 }
 
+std::string Communicator::library_version() {
+  char text[MPI_MAX_LIBRARY_VERSION_STRING];
+  int length = 0;
+  MPI_Get_library_version(text, &length);
+  std::string s(text, static_cast<std::size_t>(length));
+  const auto end = s.find_first_of("\n,");
+  return s.substr(0, end);
+}
+
 std::array<int, 3> Communicator::make_grid(std::array<int, 3> dims) const {
   if (dims[0] * dims[1] * dims[2] == size_) return dims;
   int d[3] = {dims[0], dims[1], dims[2]};

@@ -28,6 +28,9 @@ class Communicator {
   // can use it with or without mpirun.
   Communicator();
 
+  // The MPI library's own description (MPI_Get_library_version), first line.
+  static std::string library_version();
+
   int rank() const { return rank_; }
   int size() const { return size_; }
   bool is_root() const { return rank_ == 0; }

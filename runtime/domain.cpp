@@ -28,15 +28,16 @@ double side_of(const Box &box, int a) {
 
 }  // namespace
 
-Domain::Domain(const Box &box, std::array<int, 3> grid, int rank, double halo)
-    : box_(box), grid_(grid), rank_(rank), halo_(halo) {
+Domain::Domain(const Box &box, std::array<int, 3> grid, int rank, double shadow_reach,
+               double partner_reach)
+    : box_(box), grid_(grid), rank_(rank), shadow_reach_(shadow_reach) {
   const auto lo = lower(rank_), hi = upper(rank_);
   for (int r = 0; r < ranks(); ++r) {
     if (r == rank_) continue;
     const auto rlo = lower(r), rhi = upper(r);
     bool close = true;
     for (int a = 0; a < 3; ++a)
-      close = close && arcs_distance(lo[a], hi[a], rlo[a], rhi[a], side_of(box_, a)) < 2.0 * halo_;
+      close = close && arcs_distance(lo[a], hi[a], rlo[a], rhi[a], side_of(box_, a)) < partner_reach;
     if (close) partners_.push_back(r);
   }
 }
@@ -74,18 +75,27 @@ int Domain::owner_of(const Vec3 &p) const {
   return (c[2] * grid_[1] + c[1]) * grid_[0] + c[0];
 }
 
-bool Domain::near(const Vec3 &p, int r, double margin) const {
-  const double x[3] = {p.x, p.y, p.z};
+bool Domain::reaches(const Vec3 &centre, const Vec3 &axis, double h, int r) const {
+  const double c[3] = {centre.x, centre.y, centre.z};
+  const double e[3] = {axis.x, axis.y, axis.z};
   const auto lo = lower(r), hi = upper(r);
-  for (int a = 0; a < 3; ++a)
-    if (!(arc_distance(x[a], lo[a], hi[a], side_of(box_, a)) < margin)) return false;
-  return true;
+  double gap2 = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    // Gap between the segment's projection [c - |e| h, c + |e| h] and [lo, hi).
+    const double extent = std::fabs(e[a]) * h;
+    const double gap =
+        std::max(0.0, arc_distance(c[a], lo[a], hi[a], side_of(box_, a)) - extent);
+    gap2 += gap * gap;
+  }
+  return gap2 < shadow_reach_ * shadow_reach_;
 }
 
 std::string Domain::describe() const {
-  return fmt::format("{} x {} x {} ranks, subdomain {:.3f} x {:.3f} x {:.3f}, halo {:.3f}, {} partners",
-                     grid_[0], grid_[1], grid_[2], box_.length.x / grid_[0],
-                     box_.length.y / grid_[1], box_.length.z / grid_[2], halo_, partners_.size());
+  return fmt::format(
+      "{} x {} x {} ranks, subdomain {:.3f} x {:.3f} x {:.3f}, shadows within {:.3f} of the "
+      "subdomain (axis segment), {} partners",
+      grid_[0], grid_[1], grid_[2], box_.length.x / grid_[0], box_.length.y / grid_[1],
+      box_.length.z / grid_[2], shadow_reach_, partners_.size());
 }
 
 }  // namespace hardrod

@@ -5,6 +5,8 @@
 
 #include <thread>
 
+#include "runtime/comm.hpp"
+
 namespace hardrod {
 
 namespace {
@@ -31,6 +33,7 @@ std::string build_info() {
   s += fmt::format("  SIMD         {}\n", simd_level());
   s += fmt::format("  FMA contract off (bit-reproducible across thread counts)\n");
   s += fmt::format("  OpenMP       {} (max threads {})\n", _OPENMP, omp_get_max_threads());
+  s += fmt::format("  MPI          {}\n", Communicator::library_version());
   s += fmt::format("  hardware     {} hardware threads\n", std::thread::hardware_concurrency());
   return s;
 }

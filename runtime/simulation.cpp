@@ -63,15 +63,31 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
   solver_.tolerance = scene_.solver_tolerance;
   solver_.max_iterations = static_cast<int>(scene_.solver_max_iterations);
 
-  const auto grid = comm_.make_grid(parallel.grid);
+  std::array<int, 3> grid = parallel.grid;
+  if (grid[0] * grid[1] * grid[2] == 0) {
+    grid = comm_.make_grid({0, 0, 0});  // non-increasing counts
+    // Rods aligned along an axis need shadows half a rod further along it than across:
+    // give the fewest cuts to the axis the bodies are most aligned with.
+    const OrderParameter q = order_parameter(axis_moments(all, all.size()));
+    std::array<int, 3> axes{0, 1, 2};
+    const double d[3] = {std::fabs(q.director.x), std::fabs(q.director.y),
+                         std::fabs(q.director.z)};
+    if (!scene_.shape.is_sphere() && std::isfinite(q.S))
+      std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return d[a] < d[b]; });
+    const std::array<int, 3> counts = grid;
+    for (int k = 0; k < 3; ++k) grid[axes[k]] = counts[k];
+  }
   if (grid[0] * grid[1] * grid[2] != comm_.size())
     throw SceneError({fmt::format("--grid {}x{}x{}: needs {} ranks, running on {}", grid[0],
                                   grid[1], grid[2], grid[0] * grid[1] * grid[2], comm_.size())});
-  // Shadows reach one interaction range plus the skin: every body that can touch an owned
-  // body before the next rebuild is held (owned bodies may leave the subdomain by skin/2,
-  // others approach by skin/2).
-  const double halo = scene_.shape.interaction_range() + scene_.skin;
-  domain_ = Domain(scene_.box, grid, comm_.rank(), halo);
+  // A body is shadowed where its axis segment comes within L/2 + D + skin of a subdomain:
+  // every point of an owned body's segment stays within L/2 + skin/2 of the subdomain until
+  // the next rebuild, and every point of another body moves at most skin/2, so every body
+  // that can touch an owned body is held. Partners: any two ranks that can hold one body.
+  const Shape &shape = scene_.shape;
+  const double shadow_reach = shape.half_length() + shape.diameter + scene_.skin;
+  const double partner_reach = 2.0 * (shadow_reach + shape.half_length());
+  domain_ = Domain(scene_.box, grid, comm_.rank(), shadow_reach, partner_reach);
 
   // Every rank makes the same full state and keeps the bodies whose centres it owns.
   Particles mine;
@@ -216,7 +232,8 @@ void Simulation::redistribute() {
   for (std::size_t i = 0; i < owned_; ++i) {
     Holding h{comm_.rank(), {}};
     for (int r : partners)
-      if (domain_.near(particles_.position(i), r, domain_.halo())) h.holders.push_back(r);
+      if (domain_.reaches(particles_.position(i), particles_.axis(i), scene_.shape.half_length(), r))
+        h.holders.push_back(r);
     for (int r : h.holders) {
       auto &buf = out[partner_slot(partners, r)];
       pack_body(buf, particles_, i);

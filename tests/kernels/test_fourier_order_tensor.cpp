@@ -9,6 +9,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -59,7 +60,7 @@ ComplexTensor3 direct_qk(const Particles &p, const Box &box, int kx, int ky, int
     const double e[3] = {p.ex[i], p.ey[i], p.ez[i]};
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b)
-        q[static_cast<std::size_t>(3 * a + b)] +=
+        q[3 * static_cast<std::size_t>(a) + static_cast<std::size_t>(b)] +=
             (1.5 * e[a] * e[b] - (a == b ? 0.5 : 0.0)) * phase;
   }
   const double scale = box.volume() / static_cast<double>(p.size());
@@ -81,7 +82,7 @@ TEST(FourierOrderTensor, HalfSpaceHoldsOneOfEachPlusMinusPair) {
   const auto modes = half_space_modes(kmax);
   EXPECT_EQ(modes.size(), static_cast<std::size_t>((7 * 7 * 7 - 1) / 2));
   EXPECT_EQ(half_space_modes(10).size(), 3429u);
-  std::vector<int> seen(7 * 7 * 7, 0);
+  std::vector<int> seen(343, 0);  // 7^3 lattice vectors
   auto slot = [](int x, int y, int z) { return (x + 3) + 7 * ((y + 3) + 7 * (z + 3)); };
   for (const auto &k : modes) {
     ++seen[static_cast<std::size_t>(slot(k[0], k[1], k[2]))];
@@ -91,32 +92,38 @@ TEST(FourierOrderTensor, HalfSpaceHoldsOneOfEachPlusMinusPair) {
     EXPECT_EQ(seen[s], s == static_cast<std::size_t>(slot(0, 0, 0)) ? 0 : 1);
 }
 
+// Every lattice vector of both halves, for the test's kmax = 4 and the paper's kmax = 10
+// (the phase recurrence's rounding grows with k). Bodies outside [0, L) must give the same.
 TEST(FourierOrderTensor, MatchesTheDirectSumAndConjugateSymmetry) {
   const Box box{{9.0, 11.5, 7.25}};
-  const Particles p = random_bodies(200, box, {0.3, 0.5, 0.8}, 17);
-  const int kmax = 4;
-  const FourierOrderTensor qk = fourier_order_tensor(p, p.size(), box, kmax);
-  ASSERT_EQ(qk.size(), half_space_modes(kmax).size());
+  Particles p = random_bodies(200, box, {0.3, 0.5, 0.8}, 17);
+  p.x[7] += 3.0 * box.length.x, p.y[8] -= 2.0 * box.length.y;  // unfolded images
   // Relative to the typical |Qk| of random bodies, (V/N) sqrt(N).
   const double typical = box.volume() / std::sqrt(200.0);
-  double worst = 0.0;
-  for (int kx = 1 - kmax; kx < kmax; ++kx)
-    for (int ky = 1 - kmax; ky < kmax; ++ky)
-      for (int kz = 1 - kmax; kz < kmax; ++kz) {
-        if (kx == 0 && ky == 0 && kz == 0) continue;
-        const ComplexTensor3 want = direct_qk(p, box, kx, ky, kz);
-        const ComplexTensor3 got = qk.tensor_at(kx, ky, kz);
-        for (std::size_t c = 0; c < 9; ++c) worst = std::max(worst, std::abs(got[c] - want[c]));
-        const ComplexTensor3 minus = qk.tensor_at(-kx, -ky, -kz);
-        for (std::size_t c = 0; c < 9; ++c) EXPECT_EQ(minus[c], std::conj(got[c]));
-      }
-  EXPECT_LT(worst / typical, 1e-12);
-  for (std::size_t m = 0; m < qk.size(); ++m) {  // tensor(m) is tensor_at(modes[m])
-    const auto &k = qk.modes[m];
-    EXPECT_EQ(qk.tensor(m), qk.tensor_at(k[0], k[1], k[2]));
+  for (const int kmax : {4, 10}) {
+    const FourierOrderTensor qk = fourier_order_tensor(p, p.size(), box, kmax);
+    ASSERT_EQ(qk.size(), half_space_modes(kmax).size());
+    double worst = 0.0;
+    for (int kx = 1 - kmax; kx < kmax; ++kx)
+      for (int ky = 1 - kmax; ky < kmax; ++ky)
+        for (int kz = 1 - kmax; kz < kmax; ++kz) {
+          if (kx == 0 && ky == 0 && kz == 0) continue;
+          const ComplexTensor3 want = direct_qk(p, box, kx, ky, kz);
+          const ComplexTensor3 got = qk.tensor_at(kx, ky, kz);
+          for (std::size_t c = 0; c < 9; ++c) worst = std::max(worst, std::abs(got[c] - want[c]));
+          const ComplexTensor3 minus = qk.tensor_at(-kx, -ky, -kz);
+          for (std::size_t c = 0; c < 9; ++c) EXPECT_EQ(minus[c], std::conj(got[c]));
+        }
+    EXPECT_LT(worst / typical, 1e-12) << "kmax " << kmax;
+    std::printf("  kmax %d: largest |kernel - direct| / typical |Qk| = %.2e\n", kmax,
+                worst / typical);
+    for (std::size_t m = 0; m < qk.size(); ++m) {  // tensor(m) is tensor_at(modes[m])
+      const auto &k = qk.modes[m];
+      EXPECT_EQ(qk.tensor(m), qk.tensor_at(k[0], k[1], k[2]));
+    }
+    EXPECT_THROW(qk.tensor_at(0, 0, 0), std::out_of_range);
+    EXPECT_THROW(qk.tensor_at(kmax, 0, 0), std::out_of_range);
   }
-  EXPECT_THROW(qk.tensor_at(0, 0, 0), std::out_of_range);
-  EXPECT_THROW(qk.tensor_at(4, 0, 0), std::out_of_range);
 }
 
 TEST(FourierOrderTensor, BitIdenticalForOneTwoAndFourThreads) {
@@ -147,8 +154,9 @@ TEST(FourierOrderTensor, PerfectAlignedLatticeHasNoSignalAtNonzeroK) {
   Particles p;
   p.resize(1000);
   for (std::size_t i = 0; i < 1000; ++i) {  // 10^3 sites: reciprocal lattice at k_a = 10
-    p.set_position(i, {0.5 + static_cast<double>(i % 10), 0.5 + static_cast<double>(i / 10 % 10),
-                       0.5 + static_cast<double>(i / 100)});
+    const std::size_t site[3] = {i % 10, i / 10 % 10, i / 100};
+    p.set_position(i, {0.5 + static_cast<double>(site[0]), 0.5 + static_cast<double>(site[1]),
+                       0.5 + static_cast<double>(site[2])});
     p.set_axis(i, axis);
   }
   const FourierOrderTensor qk = fourier_order_tensor(p, p.size(), box, 10);

@@ -34,9 +34,9 @@ struct SyntheticNematic {
   std::size_t bodies = 18432;       // and body count (rho = 0.0993)
   Vec3 director{1.0, 0.12, -0.07};  // mean director n0, tilted off the lattice axes
   // kT = 0.5 halves the director fluctuations of kT = 1 (the K/kT ratio is what matters),
-  // so |lambda dn| < 1/2, needed below, holds for all but ~1e-4 of the bodies.
+  // so |lambda dn| < 1/2, needed below, holds for all but ~1e-5 of the bodies.
   double K1 = 0.8, K2 = 0.4, K3 = 1.6, kT = 0.5;
-  double noise = 0.3;  // molecular disorder: S ~ 0.78 at noise 0.3
+  double noise = 0.3;  // molecular disorder: S ~ 0.77 at noise 0.3
   int kmax = 4;        // field modes and analysis: -kmax < k_a < kmax
 };
 
@@ -346,10 +346,10 @@ TEST(FrankSynthetic, PlaneFitWithBackgroundSubtractedRecoversTheConstants) {
 }
 
 // The paper's estimator (no subtraction). The white background adds to <|Q|^2>, so
-// 1/E_obs = 1/E + b: a plane over k^2 < 0.1 reads a secant, low by about b E there (here
-// b ~ 0.1 / (S^2 rho kT) ~ 3, E ~ 0.1: ~20 % on K3), and its chi^2 says the plane does not
-// fit. The cubic absorbs -b E^2 + b^2 E^3 and recovers the slope at k = 0, with larger
-// errors (the paper's route).
+// 1/E_obs = 1/E + b with b = <(e.e1)^2 (e.n)^2> / (S^2 rho kT) ~ 0.07 / 0.03 ~ 2.4 here: a
+// plane over k^2 < 0.1 (E ~ 0.1) reads a secant, ~20 % low on K3, and its chi^2 says the
+// plane does not fit. The cubic absorbs -b E^2 + b^2 E^3 and recovers the slope at k = 0,
+// with larger errors (the paper's route).
 TEST(FrankSynthetic, PaperEstimatorPlaneIsBiasedLowByTheBackgroundCubicIsNot) {
   const PaperBoxData &d = paper_box_data();
   const SyntheticNematic s;
