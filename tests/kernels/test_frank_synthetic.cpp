@@ -268,31 +268,6 @@ FrankAccumulatorConfig block_config() {
   return config;
 }
 
-// Eight independent runs of 40 samples in the paper's box (about 3 s on one core), shared
-// by the tests below.
-struct PaperBoxData {
-  std::vector<FrankAccumulator> runs;
-  FrankAccumulator merged, control;
-};
-
-const PaperBoxData &paper_box_data() {
-  static const PaperBoxData data = [] {
-    const SyntheticNematic s;
-    const Box box{{s.side, s.side, s.side}};
-    const auto bodies = static_cast<long long>(s.bodies);
-    PaperBoxData d{{},
-                   FrankAccumulator(box, bodies, s.kmax, block_config()),
-                   FrankAccumulator(box, bodies, s.kmax, block_config())};
-    for (int run = 0; run < 8; ++run) {
-      d.runs.emplace_back(box, bodies, s.kmax, block_config());
-      accumulate(s, 40, 1000 + 100 * static_cast<std::uint64_t>(run), d.runs.back(), &d.control);
-      d.merged += d.runs.back();
-    }
-    return d;
-  }();
-  return data;
-}
-
 FrankFitOptions fit_options(bool subtract_self_term) {
   FrankFitOptions o;
   o.kT = SyntheticNematic{}.kT;
@@ -316,13 +291,26 @@ void expect_recovered(const char *name, const FrankEstimate &e, double want, dou
       << name << " = " << e.value << " +- " << e.error;
 }
 
-// The acceptance criterion. The synthetic E_m3 is exactly K_m k1^2 + K3 k3^2 plus the white
-// background, so the plane with the background (the self term) subtracted is the
-// appropriate estimator; errors by jackknife over 32 blocks of 10 samples.
-TEST(FrankSynthetic, PlaneFitWithBackgroundSubtractedRecoversTheConstants) {
-  const PaperBoxData &d = paper_box_data();
+// THE acceptance test: eight independent runs of 40 samples in the paper's box (N = 18432,
+// kmax = 4; about 3.5 s on one core). One TEST on purpose: ctest runs every TEST in its own
+// process, so the checks that share these configurations share one TEST.
+TEST(FrankSynthetic, RecoversPrescribedConstantsFromThePapersBox) {
   const SyntheticNematic s;
-  const FrankResult r = fit_frank({d.merged}, fit_options(true));
+  const Box box{{s.side, s.side, s.side}};
+  const auto bodies = static_cast<long long>(s.bodies);
+  std::vector<FrankAccumulator> runs;
+  FrankAccumulator merged(box, bodies, s.kmax, block_config()),
+      control(box, bodies, s.kmax, block_config());
+  for (int run = 0; run < 8; ++run) {
+    runs.emplace_back(box, bodies, s.kmax, block_config());
+    accumulate(s, 40, 1000 + 100 * static_cast<std::uint64_t>(run), runs.back(), &control);
+    merged += runs.back();
+  }
+
+  // 1. The acceptance criterion. The synthetic E_m3 is exactly K_m k1^2 + K3 k3^2 plus the
+  // white background, so the plane with the background (the self term) subtracted is the
+  // appropriate estimator: within 5 % and 3 errors (jackknife over 32 blocks of 10 samples).
+  const FrankResult r = fit_frank({merged}, fit_options(true));
   std::printf("  S = %.4f, %lld samples, errors: %s (%d)\n", std::sqrt(r.mean_S2), r.samples,
               r.error_method.c_str(), r.replicas);
   report("plane, self term subtracted", r.planar);
@@ -339,70 +327,69 @@ TEST(FrankSynthetic, PlaneFitWithBackgroundSubtractedRecoversTheConstants) {
   expect_recovered("cubic K1", r.cubic.K1, s.K1, 0.15, 3.0);
   expect_recovered("cubic K2", r.cubic.K2, s.K2, 0.15, 3.0);
   expect_recovered("cubic K3", r.cubic.K3, s.K3, 0.15, 3.0);
-  // Negative control: S = 1 instead of the measured S scales every K by 1 / S^2 ~ 1.7.
-  const FrankResult wrong = fit_frank({d.control}, fit_options(true));
-  EXPECT_GT(wrong.planar.K1.value, 1.3 * s.K1);
-  EXPECT_GT(wrong.planar.K3.value, 1.3 * s.K3);
-}
 
-// The paper's estimator (no subtraction). The white background adds to <|Q|^2>, so
-// 1/E_obs = 1/E + b with b = <(e.e1)^2 (e.n)^2> / (S^2 rho kT) ~ 0.07 / 0.03 ~ 2.4 here: a
-// plane over k^2 < 0.1 (E ~ 0.1) reads a secant, ~20 % low on K3, and its chi^2 says the
-// plane does not fit. The cubic absorbs -b E^2 + b^2 E^3 and recovers the slope at k = 0,
-// with larger errors (the paper's route).
-TEST(FrankSynthetic, PaperEstimatorPlaneIsBiasedLowByTheBackgroundCubicIsNot) {
-  const PaperBoxData &d = paper_box_data();
-  const SyntheticNematic s;
-  const FrankResult r = fit_frank({d.merged}, fit_options(false));
-  report("plane, paper's estimator", r.planar);
-  report("cubic, paper's estimator", r.cubic);
-  EXPECT_LT(r.planar.K3.value, 0.9 * s.K3);
-  EXPECT_LT(r.planar.K1.value, 0.95 * s.K1);
-  EXPECT_GT(r.planar.chi2_13, 2.0);
-  expect_recovered("cubic K1", r.cubic.K1, s.K1, 0.15, 3.0);
-  expect_recovered("cubic K2", r.cubic.K2, s.K2, 0.15, 3.0);
-  expect_recovered("cubic K3", r.cubic.K3, s.K3, 0.15, 3.0);
-}
+  // 2. The paper's estimator (no subtraction). The white background adds to <|Q|^2>, so
+  // 1/E_obs = 1/E + b with b = <(e.e1)^2 (e.n)^2> / (S^2 rho kT) ~ 0.07 / 0.03 ~ 2.4 here:
+  // a plane over k^2 < 0.1 (E ~ 0.1) reads a secant, ~20 % low on K3, and its chi^2 says the
+  // plane does not fit. The cubic absorbs -b E^2 + b^2 E^3 and recovers the slope at k = 0,
+  // with larger errors (the paper's route).
+  const FrankResult paper = fit_frank({merged}, fit_options(false));
+  report("plane, paper's estimator", paper.planar);
+  report("cubic, paper's estimator", paper.cubic);
+  EXPECT_LT(paper.planar.K3.value, 0.9 * s.K3);
+  EXPECT_LT(paper.planar.K1.value, 0.95 * s.K1);
+  EXPECT_GT(paper.planar.chi2_13, 2.0);
+  expect_recovered("paper cubic K1", paper.cubic.K1, s.K1, 0.15, 3.0);
+  expect_recovered("paper cubic K2", paper.cubic.K2, s.K2, 0.15, 3.0);
+  expect_recovered("paper cubic K3", paper.cubic.K3, s.K3, 0.15, 3.0);
 
-// Errors from the spread over the eight runs must agree with the jackknife over blocks of
-// the merged data (both estimate the same thing; with 8 runs the spread is known to ~25 %).
-TEST(FrankSynthetic, ErrorsFromIndependentRunsAgreeWithTheJackknife) {
-  const PaperBoxData &d = paper_box_data();
-  const FrankResult jack = fit_frank({d.merged}, fit_options(true));
-  const FrankResult runs = fit_frank(d.runs, fit_options(true));
-  EXPECT_EQ(runs.error_method, "spread over runs / sqrt(runs)");
-  EXPECT_EQ(runs.replicas, 8);
-  EXPECT_EQ(jack.planar.K1.value, runs.planar.K1.value);  // the same merged data
-  EXPECT_EQ(jack.planar.K2.value, runs.planar.K2.value);
-  EXPECT_EQ(jack.planar.K3_13.value, runs.planar.K3_13.value);
-  EXPECT_EQ(jack.planar.K3_23.value, runs.planar.K3_23.value);
-  // (The combined K3 differs slightly: its weights come from the errors being compared.)
-  for (const auto &[name, a, b] : {std::tuple{"K1", jack.planar.K1, runs.planar.K1},
-                                   std::tuple{"K2", jack.planar.K2, runs.planar.K2},
-                                   std::tuple{"K3", jack.planar.K3, runs.planar.K3}}) {
+  // 3. Errors from the spread over the eight runs agree with the jackknife over the blocks
+  // of the merged data (with 8 runs the spread is itself known to ~25 %). The central values
+  // are those of the same merged data, except the combined K3, whose weights come from the
+  // errors being compared.
+  const FrankResult by_runs = fit_frank(runs, fit_options(true));
+  EXPECT_EQ(by_runs.error_method, "spread over runs / sqrt(runs)");
+  EXPECT_EQ(by_runs.replicas, 8);
+  EXPECT_EQ(r.planar.K1.value, by_runs.planar.K1.value);
+  EXPECT_EQ(r.planar.K2.value, by_runs.planar.K2.value);
+  EXPECT_EQ(r.planar.K3_13.value, by_runs.planar.K3_13.value);
+  EXPECT_EQ(r.planar.K3_23.value, by_runs.planar.K3_23.value);
+  for (const auto &[name, a, b] : {std::tuple{"K1", r.planar.K1, by_runs.planar.K1},
+                                   std::tuple{"K2", r.planar.K2, by_runs.planar.K2},
+                                   std::tuple{"K3", r.planar.K3, by_runs.planar.K3}}) {
     EXPECT_GT(b.error, 0.5 * a.error) << name;
     EXPECT_LT(b.error, 2.0 * a.error) << name;
   }
   std::printf("  errors, jackknife vs runs: K1 %.4f %.4f  K2 %.4f %.4f  K3 %.4f %.4f\n",
-              jack.planar.K1.error, runs.planar.K1.error, jack.planar.K2.error,
-              runs.planar.K2.error, jack.planar.K3.error, runs.planar.K3.error);
+              r.planar.K1.error, by_runs.planar.K1.error, r.planar.K2.error,
+              by_runs.planar.K2.error, r.planar.K3.error, by_runs.planar.K3.error);
+
+  // 4. Negative control: S = 1 instead of the measured S scales every K by 1 / S^2 ~ 1.7.
+  const FrankResult wrong = fit_frank({control}, fit_options(true));
+  EXPECT_GT(wrong.planar.K1.value, 1.3 * s.K1);
+  EXPECT_GT(wrong.planar.K3.value, 1.3 * s.K3);
 }
 
+// A saved and reloaded accumulator gives the same fit, bit for bit (a small system: this is
+// about the file, not the physics).
 TEST(FrankSynthetic, AccumulatorSurvivesAFileRoundTrip) {
-  const PaperBoxData &d = paper_box_data();
+  SyntheticNematic s;
+  s.side = 28.5256;  // the everyday scene's box
+  s.bodies = 2304;
+  s.kmax = 3;
+  FrankAccumulator acc(Box{{s.side, s.side, s.side}}, static_cast<long long>(s.bodies), s.kmax,
+                       block_config());
+  accumulate(s, 30, 77, acc);
   const std::string path = ::testing::TempDir() + "frank_accumulator_roundtrip.json";
-  d.merged.save(path);
+  acc.save(path);
   const FrankAccumulator back = FrankAccumulator::load(path);
   std::remove(path.c_str());
-  EXPECT_EQ(back.to_json(), d.merged.to_json());
-  const FrankResult a = fit_frank({d.merged}, fit_options(true));
-  const FrankResult b = fit_frank({back}, fit_options(true));
-  for (const auto &[x, y] :
-       {std::pair{a.planar.K1, b.planar.K1}, std::pair{a.planar.K2, b.planar.K2},
-        std::pair{a.planar.K3, b.planar.K3}, std::pair{a.cubic.K3, b.cubic.K3}}) {
-    EXPECT_EQ(x.value, y.value);
-    EXPECT_EQ(x.error, y.error);
-  }
+  EXPECT_EQ(back.to_json(), acc.to_json());
+  FrankFitOptions o = fit_options(true);
+  o.min_bin_count = 2;
+  const nlohmann::json a = to_json(fit_frank({acc}, o)), b = to_json(fit_frank({back}, o));
+  EXPECT_EQ(a, b);
+  EXPECT_TRUE(a["planar"]["K1"]["value"].is_number()) << a["planar"].dump();
 }
 
 // Must-fail check: with splay and twist swapped in the generator the fit must follow.
