@@ -22,7 +22,7 @@ std::vector<int> axis_offsets(int cells, int k) {
 }
 
 int cell_coordinate(double c, double side, int cells) {
-  const int k = static_cast<int>(c / side * cells);
+  const int k = static_cast<int>(Box::wrap(c, side) / side * cells);
   return std::clamp(k, 0, cells - 1);  // c == side after rounding, or tiny negatives
 }
 

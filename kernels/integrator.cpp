@@ -6,14 +6,6 @@ namespace hardrod {
 
 namespace {
 
-// Folds c back into [0, side) when it left by less than one box length (a half step moves a
-// body far less). Two selects instead of floor and a division, so the loop stays cheap when
-// vectorised; the result equals Box::wrap(c, side) bit for bit in that range (c + side
-// rounding up to side is caught by the second select, as in Box::wrap).
-inline double fold_coordinate(double c, double side) {
-  c = c < 0.0 ? c + side : c;
-  return c >= side ? c - side : c;
-}
 
 // Rotation angles up to this use the power series below, which are exact to double
 // precision there; larger angles (|w| dt/2 > 0.1, far beyond any sensible dt) take the
@@ -58,16 +50,18 @@ inline Rotation library_rotation(double w2, double h) {
   return {std::cos(a), std::sin(a) / w, (1.0 - std::cos(a)) / w2};
 }
 
+// The rotation is orthogonal to round-off, so |e| stays 1 to ~1e-16 per step; the
+// square root and division of a renormalisation (the costliest part of the half step) are
+// left to restore_rotor_constraints, which runs every few hundred steps.
 inline void rotate_axis(double &ex, double &ey, double &ez, double wx, double wy, double wz,
                         const Rotation &r) {
   const double wdote = wx * ex + wy * ey + wz * ez;
   const double nx = ex * r.cos_a + (wy * ez - wz * ey) * r.sin_over_w + wx * wdote * r.vers_over_w2;
   const double ny = ey * r.cos_a + (wz * ex - wx * ez) * r.sin_over_w + wy * wdote * r.vers_over_w2;
   const double nz = ez * r.cos_a + (wx * ey - wy * ex) * r.sin_over_w + wz * wdote * r.vers_over_w2;
-  const double inv = 1.0 / std::sqrt(nx * nx + ny * ny + nz * nz);
-  ex = nx * inv;
-  ey = ny * inv;
-  ez = nz * inv;
+  ex = nx;
+  ey = ny;
+  ez = nz;
 }
 
 }  // namespace
@@ -76,7 +70,7 @@ namespace {
 
 // Spheres (Rotate = false) skip the rotation entirely: a scene pays only for what it uses.
 template <bool Rotate>
-void drift(Particles &p, long n, double arm, double half_dt) {
+double drift(Particles &p, long n, double arm, double half_dt) {
   double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(), *__restrict ez = p.ez.data();
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
@@ -86,8 +80,10 @@ void drift(Particles &p, long n, double arm, double half_dt) {
   double *__restrict bound = p.motion_bound.data();
   const double max_series_w2 = (kSeriesAngle / half_dt) * (kSeriesAngle / half_dt);
   long large_angles = 0;
+  double largest = 0.0;
 
-#pragma omp parallel for simd schedule(static) reduction(+ : large_angles) if (n > kParallelBodies)
+#pragma omp parallel for simd schedule(static) reduction(+ : large_angles) \
+    reduction(max : largest) if (n > kParallelBodies)
   for (long i = 0; i < n; ++i) {
     x[i] += vx[i] * half_dt;
     y[i] += vy[i] * half_dt;
@@ -107,6 +103,7 @@ void drift(Particles &p, long n, double arm, double half_dt) {
     } else {
       bound[i] += speed * half_dt * (1.0 + 1e-12);
     }
+    largest = largest > bound[i] ? largest : bound[i];
   }
   if (large_angles > 0) {
 #pragma omp parallel for schedule(static) if (n > kParallelBodies)
@@ -116,35 +113,25 @@ void drift(Particles &p, long n, double arm, double half_dt) {
         rotate_axis(ex[i], ey[i], ez[i], wx[i], wy[i], wz[i], library_rotation(w2, half_dt));
     }
   }
+  return largest;
 }
 
 }  // namespace
 
-void half_step(Particles &p, std::size_t count, const Shape &shape, double half_dt,
-               const Box *fold) {
+double half_step(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
   const long n = static_cast<long>(count);
-  if (shape.is_sphere())
-    drift<false>(p, n, 0.0, half_dt);
-  else
-    drift<true>(p, n, shape.half_length(), half_dt);
-  if (fold) {
-    // A separate pass: inside the drift loop these selects stopped GCC from running the
-    // vectorised loop (measured: 11 -> 35 ns per body-step).
-    double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
-    const Vec3 side = fold->length;
-#pragma omp parallel for simd schedule(static) if (n > kParallelBodies)
-    for (long i = 0; i < n; ++i) {
-      x[i] = fold_coordinate(x[i], side.x);
-      y[i] = fold_coordinate(y[i], side.y);
-      z[i] = fold_coordinate(z[i], side.z);
-    }
-  }
+  return shape.is_sphere() ? drift<false>(p, n, 0.0, half_dt)
+                           : drift<true>(p, n, shape.half_length(), half_dt);
 }
 
-void project_angular_velocities(Particles &p, std::size_t count) {
+void restore_rotor_constraints(Particles &p, std::size_t count) {
   const long n = static_cast<long>(count);
 #pragma omp parallel for schedule(static)
   for (long i = 0; i < n; ++i) {
+    const double inv = 1.0 / std::sqrt(p.ex[i] * p.ex[i] + p.ey[i] * p.ey[i] + p.ez[i] * p.ez[i]);
+    p.ex[i] *= inv;
+    p.ey[i] *= inv;
+    p.ez[i] *= inv;
     const double along = p.wx[i] * p.ex[i] + p.wy[i] * p.ey[i] + p.wz[i] * p.ez[i];
     p.wx[i] -= along * p.ex[i];
     p.wy[i] -= along * p.ey[i];

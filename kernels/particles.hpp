@@ -14,7 +14,7 @@ namespace hardrod {
 
 struct Particles {
   std::vector<std::int64_t> id;
-  std::vector<double> x, y, z;     // centre of mass, folded into the box
+  std::vector<double> x, y, z;     // centre of mass (not folded: see integrator.hpp)
   std::vector<double> ex, ey, ez;  // unit axis
   std::vector<double> vx, vy, vz;  // linear velocity
   std::vector<double> wx, wy, wz;  // angular velocity, perpendicular to the axis

@@ -18,6 +18,8 @@ const char *region_name(Region r) {
       return "thermostat";
     case Region::kObserve:
       return "observe";
+    case Region::kFourier:
+      return "fourier";
     case Region::kOutput:
       return "output";
     case Region::kCount:

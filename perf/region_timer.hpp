@@ -18,6 +18,7 @@ enum class Region : int {
   kResolve,
   kThermostat,
   kObserve,
+  kFourier,
   kOutput,
   kCount
 };

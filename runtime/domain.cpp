@@ -61,7 +61,8 @@ std::array<double, 3> Domain::upper(int r) const {
 }
 
 int Domain::owner_of(const Vec3 &p) const {
-  const double x[3] = {p.x, p.y, p.z};
+  const Vec3 folded = box_.wrap(p);  // centres are not folded while the bodies move
+  const double x[3] = {folded.x, folded.y, folded.z};
   int c[3];
   for (int a = 0; a < 3; ++a) {
     // Same rule as lower()/upper(): cell k covers [side k / g, side (k+1) / g).

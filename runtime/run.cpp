@@ -12,6 +12,7 @@
 #include <fstream>
 
 #include "kernels/block_average.hpp"
+#include "kernels/fourier_order_tensor.hpp"
 #include "kernels/order_tensor.hpp"
 #include "runtime/simulation.hpp"
 
@@ -104,6 +105,15 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     throw SceneError({root ? dir_problem : "output directory could not be prepared (rank 0)"});
   std::unique_ptr<TimeSeries> series;
   if (root) series = std::make_unique<TimeSeries>(dir / "timeseries.csv");
+  // Frank constants: only when the scene asks (a scene pays only for what it uses).
+  std::unique_ptr<FrankAccumulator> frank;
+  if (scene.frank && root)
+    frank = std::make_unique<FrankAccumulator>(scene.box, scene.n, scene.fourier_kmax);
+  const long long fourier_every =
+      scene.fourier_interval > 0 ? scene.fourier_interval : scene.sample_interval;
+  constexpr int kAngularBins = 50;
+  AngularCounts angular;
+  angular.counts.assign(kAngularBins, 0);
 
   const long long total_steps = scene.equilibration_steps + scene.steps;
   const double eta = scene.packing_fraction();
@@ -169,6 +179,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     s.pressure_star = eta * z;
     s.collisions = collisions_total;
     s.max_depth = t.max_depth;
+    if (production) angular += sim.angular_distribution(o.director, kAngularBins);
     if (production && t.steps == scene.sample_interval) {
       s_series.push_back(s.order_parameter);
       p_series.push_back(s.pressure_star);
@@ -206,6 +217,13 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       sim.step();
       if (options.verify) sim.verify_bodies();
       const long long step = sim.current_step();
+      if (scene.frank && step > scene.equilibration_steps &&
+          (step - scene.equilibration_steps) % fourier_every == 0) {
+        ScopedRegion r(sim.timers(), Region::kFourier);
+        const OrderParameter q = sim.order();
+        const FourierOrderTensor qk = sim.fourier_order(scene.fourier_kmax);
+        if (frank) frank->add_sample(qk, q.director, q.S);
+      }
       if (step == scene.equilibration_steps) {
         take_sample(false);  // closes equilibration; production intervals start clean
         running_sum = 0.0;
@@ -316,6 +334,21 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   }
   summary["communication_per_rank"] = traffic;
   if (!failure.empty()) summary["error"] = failure;
+  if (frank) {
+    frank->save((dir / "frank.json").string());
+    summary["frank_samples"] = frank->samples();
+  }
+  if (root && angular.total > 0) {
+    nlohmann::json a;
+    a["bins"] = kAngularBins;
+    a["description"] =
+        "distribution of |cos theta| between axes and the director over production samples, "
+        "normalised so that the isotropic distribution is 1 in every bin";
+    a["normalised"] = angular.normalised();
+    a["total"] = angular.total;
+    std::ofstream out(dir / "angular.json");
+    out << a.dump(1) << "\n";
+  }
   if (root) {
     std::ofstream out(dir / "summary.json");
     out << summary.dump(2) << "\n";

@@ -55,8 +55,11 @@ constexpr KeySpec kKeys[] = {
     {"run", "skin"},
     {"output", "dir", true},
     {"output", "log_interval"},
+    {"observables", "frank"},
+    {"observables", "fourier_kmax"},
+    {"observables", "fourier_interval"},
 };
-constexpr std::string_view kSections[] = {"system", "init", "run", "output"};
+constexpr std::string_view kSections[] = {"system", "init", "run", "output", "observables"};
 constexpr std::string_view kDensityKeys[] = {"reduced_density", "packing_fraction", "box"};
 constexpr std::string_view kAxisNames[] = {"x", "y", "z"};
 
@@ -194,7 +197,7 @@ std::string unknown_section(std::string_view name) {
   for (const std::string_view section : kSections)
     if (close_enough(edit_distance(name, section), name))
       return message + " (did you mean '[" + std::string(section) + "]'?)";
-  return message + " (sections: [system], [init], [run], [output])";
+  return message + " (sections: [system], [init], [run], [output], [observables])";
 }
 
 void check_known_keys(const toml::table &root, std::vector<std::string> &problems) {
@@ -271,6 +274,11 @@ std::optional<long long> as_integer(const toml::node &node) {
   return std::nullopt;
 }
 
+std::optional<bool> as_boolean(const toml::node &node) {
+  if (const auto *b = node.as_boolean()) return b->get();
+  return std::nullopt;
+}
+
 std::optional<double> as_real(const toml::node &node) {
   if (const auto *integer = node.as_integer()) return static_cast<double>(integer->get());
   if (const auto *real = node.as_floating_point()) return real->get();
@@ -303,6 +311,9 @@ class Reader {
   bool get(std::string_view section, std::string_view name, std::string &out,
            bool required = false) {
     return fetch(section, name, out, required, as_string, "expected a string");
+  }
+  bool get(std::string_view section, std::string_view name, bool &out, bool required = false) {
+    return fetch(section, name, out, required, as_boolean, "expected true or false");
   }
 
   // Reports "section.key = value: why" unless `holds`.
@@ -602,6 +613,16 @@ void read_output(Reader &in, Scene &scene) {
   read_at_least(in, "output", "log_interval", scene.log_interval, 0);
 }
 
+// The Frank-constant sampling costs nothing unless asked for.
+void read_observables(Reader &in, Scene &scene) {
+  in.get("observables", "frank", scene.frank);
+  long long kmax = scene.fourier_kmax;
+  if (read_at_least(in, "observables", "fourier_kmax", kmax, 1) &&
+      in.check("observables", "fourier_kmax", kmax <= 64, "must be at most 64"))
+    scene.fourier_kmax = static_cast<int>(kmax);
+  read_at_least(in, "observables", "fourier_interval", scene.fourier_interval, 0);
+}
+
 }  // namespace
 
 SceneError::SceneError(std::vector<std::string> problems)
@@ -628,6 +649,7 @@ Scene parse_scene(const std::string &toml_text, const std::vector<std::string> &
   read_init(in, scene, ok);
   read_run(in, scene);
   read_output(in, scene);
+  read_observables(in, scene);
   if (!problems.empty()) throw SceneError(std::move(problems));
   return scene;
 }
@@ -672,7 +694,11 @@ std::string scene_to_toml(const Scene &scene) {
       << "skin = " << format_real(scene.skin) << "\n\n"
       << "[output]\n"
       << "dir = " << quote(scene.output_dir) << "\n"
-      << "log_interval = " << scene.log_interval << "\n";
+      << "log_interval = " << scene.log_interval << "\n\n"
+      << "[observables]\n"
+      << "frank = " << (scene.frank ? "true" : "false") << "\n"
+      << "fourier_kmax = " << scene.fourier_kmax << "\n"
+      << "fourier_interval = " << scene.fourier_interval << "\n";
   return out.str();
 }
 

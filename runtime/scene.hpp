@@ -48,6 +48,10 @@ struct Scene {
   // [output]
   std::string output_dir = "runs/default";
   long long log_interval = 0;  // steps between plain progress lines; 0 = auto
+  // [observables]
+  bool frank = false;              // accumulate the Fourier order tensor (Frank constants)
+  int fourier_kmax = 10;           // modes -kmax < k_a < kmax, k != 0
+  long long fourier_interval = 0;  // steps between Fourier samples; 0 = sample_interval
 
   double number_density() const { return static_cast<double>(n) / box.volume(); }
   double reduced_density() const { return number_density() / shape.close_packing_density(); }

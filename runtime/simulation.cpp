@@ -112,11 +112,12 @@ void Simulation::step() {
   const double half_dt = 0.5 * scene_.dt;
   const Shape &shape = scene_.shape;
 
+  double largest_bound = 0.0;
   {  // 1. first half: free flight to the midpoint, owned bodies and shadows alike
     ScopedRegion r(timers_, Region::kIntegrate);
-    half_step(particles_, particles_.size(), shape, half_dt);
+    largest_bound = half_step(particles_, particles_.size(), shape, half_dt);
   }
-  agree_and_rebuild();
+  agree_and_rebuild(largest_bound);
 
   DetectionStats detected;
   {  // 2. contacts at the midpoint
@@ -126,7 +127,7 @@ void Simulation::step() {
   if (!(detected.max_depth <= scene_.max_overlap)) {
     pending_depth_ = std::isnan(detected.max_depth) ? 1e300 : detected.max_depth;
     pending_step_ = step_ + 1;
-    if (comm_.size() == 1) agree_and_rebuild();  // reports at once
+    if (comm_.size() == 1) agree_and_rebuild(0.0);  // reports at once
   }
 
   ResolutionStats resolved;
@@ -147,7 +148,7 @@ void Simulation::step() {
   }
   {  // 4. second half
     ScopedRegion r(timers_, Region::kIntegrate);
-    half_step(particles_, particles_.size(), shape, half_dt, &scene_.box);
+    half_step(particles_, particles_.size(), shape, half_dt);
   }
   ++step_;
 
@@ -164,6 +165,10 @@ void Simulation::step() {
   interval_.max_depth = std::max(interval_.max_depth, detected.max_depth);
   interval_.solver_energy_change += resolved.energy_change;
 
+  if (step_ % kConstraintInterval == 0) {
+    ScopedRegion r(timers_, Region::kIntegrate);
+    restore_rotor_constraints(particles_, particles_.size());
+  }
   if (scene_.thermostat_interval > 0 && step_ % scene_.thermostat_interval == 0) {
     ScopedRegion r(timers_, Region::kThermostat);
     apply_thermostat();
@@ -172,9 +177,8 @@ void Simulation::step() {
 
 // One max-reduction per step: whether any rank's pair list expired, and any problem a
 // rank saw in the previous step (so that every rank stops together).
-void Simulation::agree_and_rebuild() {
-  const double largest = largest_motion_bound(particles_, particles_.size());
-  std::vector<double> flags{largest, pending_depth_, pending_unresolved_,
+void Simulation::agree_and_rebuild(double largest_bound) {
+  std::vector<double> flags{largest_bound, pending_depth_, pending_unresolved_,
                             static_cast<double>(pending_step_)};
   if (comm_.size() > 1) flags = comm_.max("agree", flags);
   if (flags[1] > 0.0)
@@ -375,7 +379,6 @@ void Simulation::share_results(const ContactClusters &cc, const std::vector<char
 }
 
 void Simulation::apply_thermostat() {
-  project_angular_velocities(particles_, particles_.size());
   const double ke = kinetic_energy();
   if (!std::isfinite(ke) || ke <= 0.0)
     fail(fmt::format(
@@ -423,7 +426,9 @@ Observation Simulation::observe() {
   global.yz = sums[4];
   global.zz = sums[5];
   global.count = scene_.n;
-  o.order_parameter = order_parameter(global).S;
+  const OrderParameter q = order_parameter(global);
+  o.order_parameter = q.S;
+  o.director = q.director;
   ExactSum e = sums[6];
   e += sums[7];
   o.kinetic_energy = e.value();
@@ -498,6 +503,58 @@ void Simulation::verify_bodies() {
   if (failed > 0)
     throw std::logic_error(fmt::format("step {}: body bookkeeping broken: {}", step_,
                                        problem.empty() ? "(see rank 0)" : problem));
+}
+
+OrderParameter Simulation::order() {
+  const AxisMoments m = axis_moments(particles_, owned_);
+  const auto sums = comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz});
+  AxisMoments global;
+  global.xx = sums[0];
+  global.xy = sums[1];
+  global.xz = sums[2];
+  global.yy = sums[3];
+  global.yz = sums[4];
+  global.zz = sums[5];
+  global.count = scene_.n;
+  return order_parameter(global);
+}
+
+FourierOrderTensor Simulation::fourier_order(int kmax) {
+  FourierOrderTensor q = fourier_order_tensor(particles_, owned_, scene_.box, kmax);
+  if (comm_.size() == 1) return q;
+  // Ranks' partial sums travel as doubles and are added at rank 0 in rank order.
+  std::vector<char> mine;
+  for (const auto &mode : q.sums)
+    for (const auto &c : mode) {
+      pack(mine, c.real());
+      pack(mine, c.imag());
+    }
+  for (double f : q.fourth_moments) pack(mine, f);
+  const std::vector<char> all = comm_.gather("fourier", mine);
+  if (!comm_.is_root()) return q;
+  q.bodies = scene_.n;
+  for (auto &mode : q.sums) mode.fill({0.0, 0.0});
+  q.fourth_moments.fill(0.0);
+  for (std::size_t off = 0; off < all.size();) {
+    for (auto &mode : q.sums)
+      for (auto &c : mode) {
+        const double re = unpack<double>(all, off);
+        const double im = unpack<double>(all, off);
+        c += std::complex<double>(re, im);
+      }
+    for (double &f : q.fourth_moments) f += unpack<double>(all, off);
+  }
+  return q;
+}
+
+AngularCounts Simulation::angular_distribution(const Vec3 &director, int bins) {
+  AngularCounts local = angular_counts(particles_, owned_, director, bins);
+  if (comm_.size() == 1) return local;
+  AngularCounts global = local;
+  for (auto &c : global.counts) c = comm_.sum("observe", c);
+  global.total = comm_.sum("observe", local.total);
+  global.invalid = comm_.sum("observe", local.invalid);
+  return global;
 }
 
 Particles Simulation::gather_bodies() {

@@ -18,7 +18,9 @@
 #include "kernels/contact.hpp"
 #include "kernels/contact_resolution.hpp"
 #include "kernels/exact_sum.hpp"
+#include "kernels/fourier_order_tensor.hpp"
 #include "kernels/neighbor_list.hpp"
+#include "kernels/order_tensor.hpp"
 #include "kernels/particles.hpp"
 #include "perf/region_timer.hpp"
 #include "runtime/comm.hpp"
@@ -56,6 +58,7 @@ struct IntervalTotals {
 struct Observation {
   long long step = 0;
   double order_parameter = 0.0;
+  Vec3 director;
   double kinetic_energy = 0.0;
   double temperature = 0.0;
   IntervalTotals totals;  // summed over ranks
@@ -93,6 +96,13 @@ class Simulation {
   double temperature();
   // Relative kinetic-energy error each thermostat application found (drift record).
   const std::vector<double> &thermostat_corrections() const { return thermostat_corrections_; }
+  // Collective: the order parameter (S, director) of all bodies.
+  OrderParameter order();
+  // Collective: the Fourier order tensor of all bodies, summed over ranks in rank order
+  // (complete on rank 0; other ranks get their own share).
+  FourierOrderTensor fourier_order(int kmax);
+  // Collective: axes' angles to `director`, counted in `bins` bins of cos(theta), all ranks.
+  AngularCounts angular_distribution(const Vec3 &director, int bins);
   // Collective, for debugging and tests: every id 0..n-1 is owned by exactly one rank, and
   // every shadow is a bit-identical copy of its owner's body. Throws std::logic_error.
   void verify_bodies();
@@ -109,7 +119,7 @@ class Simulation {
   };
 
   void configure(Particles all, ParallelOptions parallel);
-  void agree_and_rebuild();
+  void agree_and_rebuild(double largest_bound);
   void redistribute();
   std::vector<char> complete_clusters(const ContactClusters &clusters);
   void share_results(const ContactClusters &clusters, const std::vector<char> &resolved);

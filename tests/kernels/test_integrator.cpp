@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <algorithm>
 #include <random>
 
 #include "kernels/integrator.hpp"
@@ -23,7 +24,11 @@ TEST(Integrator, FreeRotationIsExact) {
   EXPECT_NEAR(p.ex[0], std::cos(angle), 1e-13);
   EXPECT_NEAR(p.ey[0], std::sin(angle), 1e-13);
   EXPECT_NEAR(p.ez[0], 0.0, 1e-15);
-  EXPECT_NEAR(norm(p.axis(0)), 1.0, 1e-15);
+  // Not renormalised every step: the norm drifts by round-off only...
+  EXPECT_NEAR(norm(p.axis(0)), 1.0, 1e-13);
+  // ...and restore_rotor_constraints brings it back.
+  restore_rotor_constraints(p, 1);
+  EXPECT_NEAR(norm(p.axis(0)), 1.0, 2e-16);
 }
 
 TEST(Integrator, MotionBoundCoversEveryPointOfTheBody) {
@@ -50,7 +55,7 @@ TEST(Integrator, MotionBoundCoversEveryPointOfTheBody) {
       const Vec3 after = p.position(i) + s * p.axis(i);
       EXPECT_LE(norm(after - before), p.motion_bound[i]) << i;
     }
-    EXPECT_NEAR(norm(p.axis(i)), 1.0, 1e-14);
+    EXPECT_NEAR(norm(p.axis(i)), 1.0, 1e-13);
   }
 }
 
@@ -68,20 +73,18 @@ TEST(Integrator, SpheresDoNotRotate) {
   EXPECT_DOUBLE_EQ(p.z[0], 1.5);
 }
 
-TEST(Integrator, FoldsIntoTheBox) {
+TEST(Integrator, ReturnsTheLargestMotionBound) {
   Shape shape;
-  Box box;
-  box.length = {10, 10, 10};
   Particles p;
-  p.resize(1);
-  p.set_position(0, {9.9, 0.05, 5});
-  p.set_axis(0, {1, 0, 0});
-  p.set_velocity(0, {1, -1, 0});
-  half_step(p, 1, shape, 0.2, &box);
-  EXPECT_NEAR(p.x[0], 0.1, 1e-12);
-  EXPECT_NEAR(p.y[0], 9.85, 1e-12);
-  EXPECT_GE(p.x[0], 0.0);
-  EXPECT_LT(p.y[0], 10.0);
+  p.resize(3);
+  for (std::size_t i = 0; i < 3; ++i) p.set_axis(i, {1, 0, 0});
+  p.set_velocity(0, {1, 0, 0});
+  p.set_velocity(1, {0, -3, 0});
+  p.set_angular_velocity(2, {0, 0, 1});  // L/2 |w| = 2.5
+  const double largest = half_step(p, 3, shape, 0.1);
+  EXPECT_DOUBLE_EQ(largest, *std::max_element(p.motion_bound.begin(), p.motion_bound.end()));
+  EXPECT_NEAR(largest, 0.3, 1e-12);
+  EXPECT_GT(p.motion_bound[2], 0.25);
 }
 
 }  // namespace

@@ -95,7 +95,30 @@ bool same(const Scene &a, const Scene &b) {
          a.thermostat_interval == b.thermostat_interval && a.sample_interval == b.sample_interval &&
          a.max_overlap == b.max_overlap && a.solver_tolerance == b.solver_tolerance &&
          a.solver_max_iterations == b.solver_max_iterations && a.skin == b.skin &&
-         a.output_dir == b.output_dir && a.log_interval == b.log_interval;
+         a.output_dir == b.output_dir && a.log_interval == b.log_interval &&
+         a.frank == b.frank && a.fourier_kmax == b.fourier_kmax &&
+         a.fourier_interval == b.fourier_interval;
+}
+
+TEST(Scene, ObservablesSection) {
+  const std::string base =
+      "[system]\nn = 2304\nreduced_density = 0.5\n[init]\nlattice = [4, 24, 24]\n"
+      "[run]\ndt = 1e-4\nsteps = 10\n";
+  const Scene off = parse_scene(base);
+  EXPECT_FALSE(off.frank);  // nothing is paid for unless asked
+  const Scene on = parse_scene(base + "[observables]\nfrank = true\nfourier_kmax = 6\n"
+                                      "fourier_interval = 200\n");
+  EXPECT_TRUE(on.frank);
+  EXPECT_EQ(on.fourier_kmax, 6);
+  EXPECT_EQ(on.fourier_interval, 200);
+  try {
+    parse_scene(base + "[observables]\nfrank = \"yes\"\nfourier_kmax = 0\n");
+    FAIL() << "bad observables accepted";
+  } catch (const SceneError &e) {
+    ASSERT_EQ(e.problems().size(), 2u) << e.what();
+    EXPECT_NE(e.problems()[0].find("observables.frank = \"yes\""), std::string::npos) << e.what();
+    EXPECT_NE(e.problems()[1].find("observables.fourier_kmax = 0"), std::string::npos) << e.what();
+  }
 }
 
 // What every accepted scene guarantees to the rest of the program.
