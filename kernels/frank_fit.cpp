@@ -94,6 +94,7 @@ std::vector<std::array<int, 2>> monomials(bool cubic) {
 struct ModelValues {
   double Km = kNaN, K3 = kNaN, chi2 = kNaN;
   int bins = 0;
+  std::vector<std::array<double, 3>> terms;  // (i, j, a_ij) in D^2i+2j units: E = sum a x^i y^j
 };
 
 // Weighted least squares of E = sum_t a_t x^i y^j over points with x, y < max_k2, with
@@ -150,6 +151,11 @@ ModelValues fit_model(const std::vector<Point> &all, bool cubic, double max_k2, 
   for (Eigen::Index b = 0; b < n; ++b) chi2 += std::pow((target(b) - fitted(b)) * w(b), 2);
   out.Km = coef(0) / xs;
   out.K3 = coef(1) / ys;
+  for (Eigen::Index t = 0; t < np; ++t) {
+    const int i = mono[static_cast<std::size_t>(t)][0], j = mono[static_cast<std::size_t>(t)][1];
+    out.terms.push_back({static_cast<double>(i), static_cast<double>(j),
+                         coef(t) / (std::pow(xs, i) * std::pow(ys, j))});
+  }
   out.chi2 = chi2 / static_cast<double>(n - np);
   return out;
 }
@@ -242,6 +248,8 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
     fit.K3_23 = {central.values[offset + 3], errors[offset + 3]};
     fit.bins_13 = central.detail[detail].bins, fit.chi2_13 = central.detail[detail].chi2;
     fit.bins_23 = central.detail[detail + 1].bins, fit.chi2_23 = central.detail[detail + 1].chi2;
+    fit.terms_13 = central.detail[detail].terms;
+    fit.terms_23 = central.detail[detail + 1].terms;
     // Combined K3 with fixed inverse-variance weights, applied to every replica too, so its
     // error includes the correlation of the two estimates.
     double w13 = 0.5;
@@ -278,7 +286,9 @@ nlohmann::json to_json(const FrankResult &r) {
                           {"bins_E13", f.bins_13},
                           {"bins_E23", f.bins_23},
                           {"chi2_per_dof_E13", num(f.chi2_13)},
-                          {"chi2_per_dof_E23", num(f.chi2_23)}};
+                          {"chi2_per_dof_E23", num(f.chi2_23)},
+                          {"terms_E13", f.terms_13},
+                          {"terms_E23", f.terms_23}};
   };
   auto table = [&](const std::vector<FrankBinE> &bins) {
     nlohmann::json t = nlohmann::json::array();

@@ -6,6 +6,7 @@
 // jackknife within one run. Serial and deterministic (bins, not bodies: milliseconds).
 #pragma once
 
+#include <array>
 #include <limits>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
@@ -46,6 +47,8 @@ struct FrankModelFit {
   int bins_13 = 0, bins_23 = 0;                               // bins in the fit (merged data)
   double chi2_13 = std::numeric_limits<double>::quiet_NaN();  // per degree of freedom
   double chi2_23 = std::numeric_limits<double>::quiet_NaN();
+  // The central fits as terms (i, j, a_ij): E_m3 = sum a_ij (k1^2)^i (k3^2)^j, for plots.
+  std::vector<std::array<double, 3>> terms_13, terms_23;
 };
 
 // One bin of E_m3 from the merged data, for plots (paper's figures of E_13, E_23).

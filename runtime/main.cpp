@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "runtime/analyze.hpp"
 #include "runtime/comm.hpp"
 #include "runtime/info.hpp"
 #include "runtime/run.hpp"
@@ -50,6 +51,17 @@ int main(int argc, char **argv) {
 
   app.add_subcommand("info", "print the build configuration and the machine");
 
+  hardrod::AnalyzeOptions analyze_options;
+  auto *analyze = app.add_subcommand(
+      "analyze", "merge runs: S, P* and the Frank constants with errors, analysis.json, plots");
+  analyze->add_option("dirs", analyze_options.run_dirs, "run directories")->required();
+  analyze->add_option("--out", analyze_options.output_dir,
+                      "where analysis.json and the plots go (default: the first run directory)");
+  analyze->add_flag("--subtract-self-term", analyze_options.subtract_self_term,
+                    "remove the uncorrelated-rod background from <|Q_m3|^2> before fitting");
+  bool no_plots = false;
+  analyze->add_flag("--no-plots", no_plots, "skip the PNG figures");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError &e) {
@@ -58,6 +70,16 @@ int main(int argc, char **argv) {
 
   if (app.got_subcommand("info")) {
     fmt::print("{}", hardrod::build_info());
+    return 0;
+  }
+  if (app.got_subcommand("analyze")) {
+    analyze_options.plots = !no_plots;
+    try {
+      hardrod::analyze_runs(analyze_options);
+    } catch (const std::exception &e) {
+      fmt::print(stderr, "hardrod analyze: {}\n", e.what());
+      return 2;
+    }
     return 0;
   }
 
