@@ -48,6 +48,7 @@ def evaluate(terms, x, y):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--max-k2", type=float, default=2.0, help="largest k^2 drawn in the cuts (default 2)")
     ap.add_argument("runs", nargs="+")
     args = ap.parse_args()
     plt = matplotlib_or_reexec()
@@ -90,7 +91,7 @@ def main():
                 other = 1 - along
                 # The cut: bins in the lowest occupied band of the other variable.
                 lowest = min(b[other] for b in bins)
-                band = [b for b in bins if b[other] <= lowest + 0.011]
+                band = [b for b in bins if b[other] <= lowest + 0.011 and b[along] <= args.max_k2]
                 band.sort(key=lambda b: b[along])
                 xs = [b[along] for b in band]
                 a.errorbar(xs, [b[2] for b in band], yerr=[b[3] or 0 for b in band], fmt="o", ms=3,
