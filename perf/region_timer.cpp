@@ -35,7 +35,7 @@ double RegionTimers::total_seconds() const {
 }
 
 std::string RegionTimers::table(double particle_steps) const {
-  std::string out = fmt::format("{:<16}{:>12}{:>8}{:>12}{:>14}{:>16}\n", "region", "seconds",
+  std::string out = fmt::format("{:<16}{:>12}{:>8}{:>12}{:>14}{:>18}\n", "region", "seconds",
                                 "share", "calls", "ns/call", "ns/particle-step");
   const double total = total_seconds();
   for (int r = 0; r < static_cast<int>(Region::kCount); ++r) {
@@ -43,12 +43,12 @@ std::string RegionTimers::table(double particle_steps) const {
     if (s.calls == 0) continue;
     const double sec = 1e-9 * s.nanoseconds;
     out +=
-        fmt::format("{:<16}{:>12.3f}{:>7.1f}%{:>12}{:>14.0f}{:>16.2f}\n",
+        fmt::format("{:<16}{:>12.3f}{:>7.1f}%{:>12}{:>14.0f}{:>18.2f}\n",
                     region_name(static_cast<Region>(r)), sec, total > 0 ? 100.0 * sec / total : 0.0,
                     s.calls, static_cast<double>(s.nanoseconds) / s.calls,
                     particle_steps > 0 ? s.nanoseconds / particle_steps : 0.0);
   }
-  out += fmt::format("{:<16}{:>12.3f}{:>8}{:>12}{:>14}{:>16.2f}\n", "total", total, "", "", "",
+  out += fmt::format("{:<16}{:>12.3f}{:>8}{:>12}{:>14}{:>18.2f}\n", "total", total, "", "", "",
                      particle_steps > 0 ? 1e9 * total / particle_steps : 0.0);
   return out;
 }

@@ -5,6 +5,7 @@
 
 #include <thread>
 
+#include "perf/topology.hpp"
 #include "runtime/comm.hpp"
 
 namespace hardrod {
@@ -35,6 +36,9 @@ std::string build_info() {
   s += fmt::format("  OpenMP       {} (max threads {})\n", _OPENMP, omp_get_max_threads());
   s += fmt::format("  MPI          {}\n", Communicator::library_version());
   s += fmt::format("  hardware     {} hardware threads\n", std::thread::hardware_concurrency());
+  s += fmt::format("  topology     {} (hwloc)\n", describe_topology().description);
+  s += fmt::format("  binding      {}\n", bind_threads(true));
+  s += fmt::format("  placement    {}\n", thread_placement());
   return s;
 }
 

@@ -35,6 +35,8 @@ int main(int argc, char **argv) {
   run->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
       ->check(CLI::PositiveNumber);
   run->add_flag("--quiet", quiet, "no progress output");
+  bool no_bind = false;
+  run->add_flag("--no-bind", no_bind, "do not bind OpenMP threads to cores");
   run->add_flag("--verify", options.verify,
                 "after every step check that every body is owned once and every shadow equals "
                 "its owner (slow; for debugging)");
@@ -85,6 +87,7 @@ int main(int argc, char **argv) {
 
   if (threads > 0) omp_set_num_threads(threads);
   options.quiet = quiet;
+  options.bind = !no_bind;
   if (!grid.empty())
     std::sscanf(grid.c_str(), "%dx%dx%d", &options.parallel.grid[0], &options.parallel.grid[1],
                 &options.parallel.grid[2]);

@@ -14,6 +14,7 @@
 #include "kernels/block_average.hpp"
 #include "kernels/fourier_order_tensor.hpp"
 #include "kernels/order_tensor.hpp"
+#include "perf/topology.hpp"
 #include "runtime/simulation.hpp"
 
 namespace hardrod {
@@ -103,6 +104,21 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   }
   if (comm.sum("setup", dir_problem.empty() ? 0LL : 1LL) > 0)
     throw SceneError({root ? dir_problem : "output directory could not be prepared (rank 0)"});
+  // Where the threads run: bind (unless told not to), then every rank reports.
+  const std::string binding = bind_threads(options.bind);
+  std::vector<std::string> placements;
+  {
+    const std::string mine = fmt::format("rank {}: {}", comm.rank(), thread_placement());
+    const std::vector<char> all = comm.gather("setup", std::vector<char>(mine.begin(), mine.end()));
+    // Rank lines are gathered as one block; split them at the "rank " prefixes.
+    const std::string text(all.begin(), all.end());
+    for (std::size_t pos = 0; pos < text.size();) {
+      const std::size_t next = text.find("rank ", pos + 1);
+      placements.push_back(text.substr(pos, next == std::string::npos ? next : next - pos));
+      pos = next == std::string::npos ? text.size() : next;
+    }
+  }
+  const TopologySummary topology = describe_topology();
   std::unique_ptr<TimeSeries> series;
   if (root) series = std::make_unique<TimeSeries>(dir / "timeseries.csv");
   // Frank constants: only when the scene asks (a scene pays only for what it uses).
@@ -140,8 +156,13 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
         scene.n, scene.reduced_density(), eta, scene.box.length.x, scene.box.length.y,
         scene.box.length.z);
     fmt::print(
-        "hardrod: dt = {:g}, {} equilibration + {} production steps, {} threads, output {}\n",
-        scene.dt, scene.equilibration_steps, scene.steps, omp_get_max_threads(), dir.string());
+        "hardrod: dt = {:g}, {} equilibration + {} production steps, {} rank(s) x {} thread(s), "
+        "output {}\n",
+        scene.dt, scene.equilibration_steps, scene.steps, comm.size(), omp_get_max_threads(),
+        dir.string());
+    if (comm.size() > 1) fmt::print("hardrod: {}\n", sim.domain().describe());
+    fmt::print("hardrod: machine {}; {}\n", topology.description, binding);
+    for (const auto &p : placements) fmt::print("hardrod:   {}\n", p);
     std::fflush(stdout);
   }
 
@@ -313,6 +334,9 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       {"ranks", comm.size()},
       {"grid", sim.domain().grid()},
       {"threads", omp_get_max_threads()},
+      {"topology", topology.description},
+      {"binding", binding},
+      {"placement", placements},
       {"state_checksum", sim.state_checksum()},
   };
   nlohmann::json timers;

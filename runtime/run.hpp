@@ -18,6 +18,7 @@ struct RunOptions {
   bool quiet = false;      // no progress lines (tests)
   int progress = -1;       // -1: live line if stdout is a terminal; 0: plain lines; 1: live
   ParallelOptions parallel;  // process grid
+  bool bind = true;          // bind OpenMP threads to cores with hwloc (see perf/topology.hpp)
   bool verify = false;       // check body bookkeeping after every step (slow; debugging)
 };
 

@@ -100,7 +100,14 @@ TEST_P(DetectionMatchesBruteForce, OverManySteps) {
 INSTANTIATE_TEST_SUITE_P(Shapes, DetectionMatchesBruteForce,
                          ::testing::Values(Case{5.0, 0.3, true, 1}, Case{5.0, 0.3, false, 2},
                                            Case{5.0, 0.05, true, 2}, Case{0.0, 0.3, false, 1},
-                                           Case{0.0, 0.1, false, 2}, Case{1.0, 0.5, false, 2}));
+                                           Case{0.0, 0.1, false, 2}, Case{1.0, 0.5, false, 2}),
+                         [](const ::testing::TestParamInfo<Case> &info) {
+                           const Case &c = info.param;
+                           return "L" + std::to_string(static_cast<int>(c.length)) + "_skin" +
+                                  std::to_string(static_cast<int>(c.skin * 100)) +
+                                  (c.aligned ? "_aligned" : "_random") + "_threads" +
+                                  std::to_string(c.threads);
+                         });
 
 TEST(Detection, ContactGeometryIsCanonical) {
   Shape shape;
