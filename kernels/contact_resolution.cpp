@@ -123,9 +123,8 @@ ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<C
       const std::size_t begin = cluster_start[cl], end = cluster_start[cl + 1];
       if (end - begin == 1) {  // isolated contact: the exact elastic impulse
         Contact &c = contacts[by_cluster[begin]];
-        const double lambda =
-            std::max(0.0, (target_velocity(c.approach_velocity) - c.approach_velocity) /
-                              c.inverse_mass);
+        const double lambda = std::max(
+            0.0, (target_velocity(c.approach_velocity) - c.approach_velocity) / c.inverse_mass);
         c.impulse = lambda;
         if (lambda > 0.0) apply_impulse(p, c, lambda, inv_m, inv_i);
         continue;

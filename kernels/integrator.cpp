@@ -6,7 +6,6 @@ namespace hardrod {
 
 namespace {
 
-
 // Rotation angles up to this use the power series below, which are exact to double
 // precision there; larger angles (|w| dt/2 > 0.1, far beyond any sensible dt) take the
 // library sin and cos in a scalar pass.

@@ -40,8 +40,8 @@ struct NeighborList {
 // not by storage).
 void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, std::size_t owned,
                          const Box &box, const Shape &shape);
-inline void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count,
-                                const Box &box, const Shape &shape) {
+inline void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, const Box &box,
+                                const Shape &shape) {
   build_neighbor_list(list, p, count, count, box, shape);
 }
 

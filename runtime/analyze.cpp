@@ -89,10 +89,10 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   out["pressure_star"] = merge_estimates(summaries, "pressure_star");
   out["samples"] = out["order_parameter"]["samples"];
   if (!frank.empty() && frank.size() != options.run_dirs.size())
-    throw std::runtime_error(fmt::format(
-        "analyze: {} of {} run directories have frank.json; merge only runs made with "
-        "[observables] frank = true",
-        frank.size(), options.run_dirs.size()));
+    throw std::runtime_error(
+        fmt::format("analyze: {} of {} run directories have frank.json; merge only runs made with "
+                    "[observables] frank = true",
+                    frank.size(), options.run_dirs.size()));
   if (!frank.empty()) {
     FrankFitOptions fo;
     fo.subtract_self_term = options.subtract_self_term;
@@ -134,8 +134,7 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
                       outdir.string() + "\"";
     for (const auto &d : options.run_dirs) cmd += " \"" + d + "\"";
     std::fflush(stdout);
-    if (std::system(cmd.c_str()) != 0)
-      fmt::print("  plots: not made (run by hand: {})\n", cmd);
+    if (std::system(cmd.c_str()) != 0) fmt::print("  plots: not made (run by hand: {})\n", cmd);
   }
   return out;
 }

@@ -6,10 +6,9 @@
 // scripts/plot_analysis.py, the paper's figures as PNG.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 namespace hardrod {
 

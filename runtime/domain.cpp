@@ -37,7 +37,8 @@ Domain::Domain(const Box &box, std::array<int, 3> grid, int rank, double shadow_
     const auto rlo = lower(r), rhi = upper(r);
     bool close = true;
     for (int a = 0; a < 3; ++a)
-      close = close && arcs_distance(lo[a], hi[a], rlo[a], rhi[a], side_of(box_, a)) < partner_reach;
+      close =
+          close && arcs_distance(lo[a], hi[a], rlo[a], rhi[a], side_of(box_, a)) < partner_reach;
     if (close) partners_.push_back(r);
   }
 }
@@ -84,8 +85,7 @@ bool Domain::reaches(const Vec3 &centre, const Vec3 &axis, double h, int r) cons
   for (int a = 0; a < 3; ++a) {
     // Gap between the segment's projection [c - |e| h, c + |e| h] and [lo, hi).
     const double extent = std::fabs(e[a]) * h;
-    const double gap =
-        std::max(0.0, arc_distance(c[a], lo[a], hi[a], side_of(box_, a)) - extent);
+    const double gap = std::max(0.0, arc_distance(c[a], lo[a], hi[a], side_of(box_, a)) - extent);
     gap2 += gap * gap;
   }
   return gap2 < shadow_reach_ * shadow_reach_;

@@ -8,8 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <fstream>
+#include <memory>
 
 #include "kernels/block_average.hpp"
 #include "kernels/fourier_order_tensor.hpp"
@@ -192,9 +192,10 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     s.kinetic_energy = o.kinetic_energy;
     s.temperature = o.temperature;
     if (!std::isfinite(s.kinetic_energy))
-      throw PhysicsError(fmt::format("step {}: kinetic energy is not finite at run.dt = {:g}; "
-                                     "try a smaller run.dt",
-                                     s.step, scene.dt));
+      throw PhysicsError(
+          fmt::format("step {}: kinetic energy is not finite at run.dt = {:g}; "
+                      "try a smaller run.dt",
+                      s.step, scene.dt));
     const double interval_time = static_cast<double>(t.steps) * scene.dt;
     const double z = 1.0 + t.virial.value() / (3.0 * n * s.temperature * interval_time);
     s.pressure_star = eta * z;
@@ -269,7 +270,8 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     if (!quiet && live) fmt::print("\n");
   }
 
-  const double wall = comm.max("summary", {std::chrono::duration<double>(Clock::now() - start).count()})[0];
+  const double wall =
+      comm.max("summary", {std::chrono::duration<double>(Clock::now() - start).count()})[0];
   const double production_time = static_cast<double>(scene.steps) * scene.dt;
   const double simulated = sim.time();
   const double particle_steps = n * static_cast<double>(sim.current_step());
@@ -347,8 +349,8 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   nlohmann::json traffic = nlohmann::json::object();
   const double rank_steps =
       static_cast<double>(comm.size()) * std::max<long long>(1, sim.current_step());
-  for (const char *name : {"agree", "migrate", "shadows", "degrees", "results", "observe",
-                           "kinetic_energy"}) {
+  for (const char *name :
+       {"agree", "migrate", "shadows", "degrees", "results", "observe", "kinetic_energy"}) {
     const auto it = comm.traffic().find(name);
     const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
     const long long messages = comm.sum("summary", c.messages);

@@ -13,10 +13,10 @@
 namespace hardrod {
 
 struct RunOptions {
-  std::string output_dir;  // empty: the scene's output.dir
-  bool force = false;      // overwrite an existing run in output_dir
-  bool quiet = false;      // no progress lines (tests)
-  int progress = -1;       // -1: live line if stdout is a terminal; 0: plain lines; 1: live
+  std::string output_dir;    // empty: the scene's output.dir
+  bool force = false;        // overwrite an existing run in output_dir
+  bool quiet = false;        // no progress lines (tests)
+  int progress = -1;         // -1: live line if stdout is a terminal; 0: plain lines; 1: live
   ParallelOptions parallel;  // process grid
   bool bind = true;          // bind OpenMP threads to cores with hwloc (see perf/topology.hpp)
   bool verify = false;       // check body bookkeeping after every step (slow; debugging)

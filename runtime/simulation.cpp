@@ -21,8 +21,8 @@ namespace {
 // with every rebuild, so it does not travel).
 void pack_body(std::vector<char> &buf, const Particles &p, std::size_t i) {
   pack(buf, p.id[i]);
-  for (const auto *f : {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy,
-                        &p.wz})
+  for (const auto *f :
+       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz})
     pack(buf, (*f)[i]);
 }
 
@@ -52,8 +52,8 @@ Simulation::Simulation(Scene scene, ParallelOptions parallel) : scene_(std::move
 Simulation::Simulation(Scene scene, Particles bodies, ParallelOptions parallel)
     : scene_(std::move(scene)) {
   if (static_cast<long long>(bodies.size()) != scene_.n)
-    throw std::invalid_argument(fmt::format("Simulation: {} bodies given for a scene of n = {}",
-                                            bodies.size(), scene_.n));
+    throw std::invalid_argument(
+        fmt::format("Simulation: {} bodies given for a scene of n = {}", bodies.size(), scene_.n));
   configure(std::move(bodies), parallel);
 }
 
@@ -70,8 +70,7 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
     // give the fewest cuts to the axis the bodies are most aligned with.
     const OrderParameter q = order_parameter(axis_moments(all, all.size()));
     std::array<int, 3> axes{0, 1, 2};
-    const double d[3] = {std::fabs(q.director.x), std::fabs(q.director.y),
-                         std::fabs(q.director.z)};
+    const double d[3] = {std::fabs(q.director.x), std::fabs(q.director.y), std::fabs(q.director.z)};
     if (!scene_.shape.is_sphere() && std::isfinite(q.S))
       std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return d[a] < d[b]; });
     const std::array<int, 3> counts = grid;
@@ -96,10 +95,18 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
     const std::size_t k = mine.size();
     mine.resize(k + 1);
     mine.id[k] = all.id[i];
-    for (auto [dst, src] :
-         {std::pair{&mine.x, &all.x}, {&mine.y, &all.y}, {&mine.z, &all.z}, {&mine.ex, &all.ex},
-          {&mine.ey, &all.ey}, {&mine.ez, &all.ez}, {&mine.vx, &all.vx}, {&mine.vy, &all.vy},
-          {&mine.vz, &all.vz}, {&mine.wx, &all.wx}, {&mine.wy, &all.wy}, {&mine.wz, &all.wz}})
+    for (auto [dst, src] : {std::pair{&mine.x, &all.x},
+                            {&mine.y, &all.y},
+                            {&mine.z, &all.z},
+                            {&mine.ex, &all.ex},
+                            {&mine.ey, &all.ey},
+                            {&mine.ez, &all.ez},
+                            {&mine.vx, &all.vx},
+                            {&mine.vy, &all.vy},
+                            {&mine.vz, &all.vz},
+                            {&mine.wx, &all.wx},
+                            {&mine.wy, &all.wy},
+                            {&mine.wz, &all.wz}})
       (*dst)[k] = (*src)[i];
   }
   particles_ = std::move(mine);
@@ -236,7 +243,8 @@ void Simulation::redistribute() {
   for (std::size_t i = 0; i < owned_; ++i) {
     Holding h{comm_.rank(), {}};
     for (int r : partners)
-      if (domain_.reaches(particles_.position(i), particles_.axis(i), scene_.shape.half_length(), r))
+      if (domain_.reaches(particles_.position(i), particles_.axis(i), scene_.shape.half_length(),
+                          r))
         h.holders.push_back(r);
     for (int r : h.holders) {
       auto &buf = out[partner_slot(partners, r)];
@@ -252,7 +260,8 @@ void Simulation::redistribute() {
       unpack_body(shadows[k], off, particles_);
       Holding h{partners[k], {}};
       const auto count = unpack<std::int32_t>(shadows[k], off);
-      for (std::int32_t q = 0; q < count; ++q) h.holders.push_back(unpack<std::int32_t>(shadows[k], off));
+      for (std::int32_t q = 0; q < count; ++q)
+        h.holders.push_back(unpack<std::int32_t>(shadows[k], off));
       holding_[particles_.id.back()] = std::move(h);
     }
 }
@@ -381,10 +390,10 @@ void Simulation::share_results(const ContactClusters &cc, const std::vector<char
 void Simulation::apply_thermostat() {
   const double ke = kinetic_energy();
   if (!std::isfinite(ke) || ke <= 0.0)
-    fail(fmt::format(
-        "step {}: kinetic energy is {} (NaN or infinite velocities) at run.dt = {:g}; "
-        "try a smaller run.dt",
-        step_, ke, scene_.dt));
+    fail(
+        fmt::format("step {}: kinetic energy is {} (NaN or infinite velocities) at run.dt = {:g}; "
+                    "try a smaller run.dt",
+                    step_, ke, scene_.dt));
   thermostat_corrections_.push_back(ke / kinetic_target_ - 1.0);
   // Shadows are scaled too, by the same factor: they stay bit-identical to their owners.
   scale_velocities(particles_, particles_.size(), std::sqrt(kinetic_target_ / ke));
@@ -416,8 +425,8 @@ Observation Simulation::observe() {
   const IntervalTotals t = take_interval();
   const AxisMoments m = axis_moments(particles_, owned_);
   const KineticEnergy ke = hardrod::kinetic_energy(particles_, owned_, scene_.shape);
-  const auto sums = comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz, ke.translational,
-                                          ke.rotational, t.virial});
+  const auto sums = comm_.sum(
+      "observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz, ke.translational, ke.rotational, t.virial});
   AxisMoments global;
   global.xx = sums[0];
   global.xy = sums[1];
@@ -438,11 +447,12 @@ Observation Simulation::observe() {
   o.totals = t;
   o.totals.virial = sums[8];
   if (comm_.size() > 1) {
-    for (long long *v : {&o.totals.collisions, &o.totals.narrow_phase_tests, &o.totals.contacts,
-                         &o.totals.multi_contact_bodies, &o.totals.clusters,
-                         &o.totals.solver_unconverged})
+    for (long long *v :
+         {&o.totals.collisions, &o.totals.narrow_phase_tests, &o.totals.contacts,
+          &o.totals.multi_contact_bodies, &o.totals.clusters, &o.totals.solver_unconverged})
       *v = comm_.sum("observe", *v);
-    const auto mx = comm_.max("observe", {t.max_depth, static_cast<double>(t.solver_iterations_max)});
+    const auto mx =
+        comm_.max("observe", {t.max_depth, static_cast<double>(t.solver_iterations_max)});
     o.totals.max_depth = mx[0];
     o.totals.solver_iterations_max = static_cast<long long>(mx[1]);
   }
@@ -463,9 +473,9 @@ void Simulation::verify_bodies() {
       problem = fmt::format("{} bodies owned in total, expected {}", ids.size(), scene_.n);
     for (std::size_t k = 0; problem.empty() && k < ids.size(); ++k)
       if (ids[k] != static_cast<std::int64_t>(k))
-        problem = fmt::format("id {} is {}", ids[k], k > 0 && ids[k] == ids[k - 1]
-                                                          ? "owned twice"
-                                                          : "out of place (a body was lost)");
+        problem = fmt::format(
+            "id {} is {}", ids[k],
+            k > 0 && ids[k] == ids[k - 1] ? "owned twice" : "out of place (a body was lost)");
   }
   // Shadows: each rank checks its copies against their owners' bodies, gathered at rank 0
   // and sent back to everyone as one block (debug only: this moves every body).
@@ -488,9 +498,12 @@ void Simulation::verify_bodies() {
       continue;
     }
     const std::size_t k = it->second;
-    for (auto [a, b] : {std::pair{&particles_.x, &reference.x}, {&particles_.y, &reference.y},
-                        {&particles_.z, &reference.z}, {&particles_.ex, &reference.ex},
-                        {&particles_.vx, &reference.vx}, {&particles_.wz, &reference.wz}})
+    for (auto [a, b] : {std::pair{&particles_.x, &reference.x},
+                        {&particles_.y, &reference.y},
+                        {&particles_.z, &reference.z},
+                        {&particles_.ex, &reference.ex},
+                        {&particles_.vx, &reference.vx},
+                        {&particles_.wz, &reference.wz}})
       if ((*a)[i] != (*b)[k]) {
         ++mismatches;
         break;

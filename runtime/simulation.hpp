@@ -132,7 +132,7 @@ class Simulation {
   Domain domain_;
   Particles particles_;
   std::size_t owned_ = 0;
-  std::unordered_map<std::int64_t, Holding> holding_;     // by id, for every held body
+  std::unordered_map<std::int64_t, Holding> holding_;      // by id, for every held body
   std::unordered_map<std::int64_t, std::uint32_t> index_;  // id -> local index
   NeighborList list_;
   std::vector<Contact> contacts_;

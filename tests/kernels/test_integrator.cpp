@@ -2,9 +2,9 @@
 // really bound how far every point of a body moved.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <algorithm>
 #include <random>
 
 #include "kernels/integrator.hpp"

@@ -24,8 +24,8 @@ std::string short_frank_run(unsigned long long seed, bool frank) {
   scene.frank = frank;
   scene.fourier_kmax = 3;
   scene.fourier_interval = 50;
-  const fs::path dir = fs::temp_directory_path() /
-                       ("hardrod-analyze-" + std::to_string(seed) + (frank ? "f" : "n"));
+  const fs::path dir =
+      fs::temp_directory_path() / ("hardrod-analyze-" + std::to_string(seed) + (frank ? "f" : "n"));
   fs::remove_all(dir);
   RunOptions options;
   options.output_dir = dir.string();

@@ -95,9 +95,8 @@ bool same(const Scene &a, const Scene &b) {
          a.thermostat_interval == b.thermostat_interval && a.sample_interval == b.sample_interval &&
          a.max_overlap == b.max_overlap && a.solver_tolerance == b.solver_tolerance &&
          a.solver_max_iterations == b.solver_max_iterations && a.skin == b.skin &&
-         a.output_dir == b.output_dir && a.log_interval == b.log_interval &&
-         a.frank == b.frank && a.fourier_kmax == b.fourier_kmax &&
-         a.fourier_interval == b.fourier_interval;
+         a.output_dir == b.output_dir && a.log_interval == b.log_interval && a.frank == b.frank &&
+         a.fourier_kmax == b.fourier_kmax && a.fourier_interval == b.fourier_interval;
 }
 
 TEST(Scene, ObservablesSection) {
@@ -106,8 +105,9 @@ TEST(Scene, ObservablesSection) {
       "[run]\ndt = 1e-4\nsteps = 10\n";
   const Scene off = parse_scene(base);
   EXPECT_FALSE(off.frank);  // nothing is paid for unless asked
-  const Scene on = parse_scene(base + "[observables]\nfrank = true\nfourier_kmax = 6\n"
-                                      "fourier_interval = 200\n");
+  const Scene on = parse_scene(base +
+                               "[observables]\nfrank = true\nfourier_kmax = 6\n"
+                               "fourier_interval = 200\n");
   EXPECT_TRUE(on.frank);
   EXPECT_EQ(on.fourier_kmax, 6);
   EXPECT_EQ(on.fourier_interval, 200);
