@@ -35,6 +35,19 @@ void unpack_body(const std::vector<char> &buf, std::size_t &off, Particles &p) {
   p.motion_bound[i] = 0.0;
 }
 
+// Global axis moments from the first six of a rank-summed list (xx, xy, xz, yy, yz, zz).
+AxisMoments moments_from(const std::vector<ExactSum> &sums, long long n) {
+  AxisMoments m;
+  m.xx = sums[0];
+  m.xy = sums[1];
+  m.xz = sums[2];
+  m.yy = sums[3];
+  m.yz = sums[4];
+  m.zz = sums[5];
+  m.count = n;
+  return m;
+}
+
 std::size_t partner_slot(const std::vector<int> &partners, int rank) {
   return static_cast<std::size_t>(std::lower_bound(partners.begin(), partners.end(), rank) -
                                   partners.begin());
@@ -427,15 +440,7 @@ Observation Simulation::observe() {
   const KineticEnergy ke = hardrod::kinetic_energy(particles_, owned_, scene_.shape);
   const auto sums = comm_.sum(
       "observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz, ke.translational, ke.rotational, t.virial});
-  AxisMoments global;
-  global.xx = sums[0];
-  global.xy = sums[1];
-  global.xz = sums[2];
-  global.yy = sums[3];
-  global.yz = sums[4];
-  global.zz = sums[5];
-  global.count = scene_.n;
-  const OrderParameter q = order_parameter(global);
+  const OrderParameter q = order_parameter(moments_from(sums, scene_.n));
   o.order_parameter = q.S;
   o.director = q.director;
   ExactSum e = sums[6];
@@ -520,16 +525,8 @@ void Simulation::verify_bodies() {
 
 OrderParameter Simulation::order() {
   const AxisMoments m = axis_moments(particles_, owned_);
-  const auto sums = comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz});
-  AxisMoments global;
-  global.xx = sums[0];
-  global.xy = sums[1];
-  global.xz = sums[2];
-  global.yy = sums[3];
-  global.yz = sums[4];
-  global.zz = sums[5];
-  global.count = scene_.n;
-  return order_parameter(global);
+  return order_parameter(moments_from(comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz}),
+                                      scene_.n));
 }
 
 FourierOrderTensor Simulation::fourier_order(int kmax) {
