@@ -16,6 +16,7 @@
 #include "kernels/order_tensor.hpp"
 #include "perf/topology.hpp"
 #include "runtime/simulation.hpp"
+#include "runtime/snapshot.hpp"
 
 namespace hardrod {
 
@@ -120,7 +121,17 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   }
   const TopologySummary topology = describe_topology();
   std::unique_ptr<TimeSeries> series;
-  if (root) series = std::make_unique<TimeSeries>(dir / "timeseries.csv");
+  std::unique_ptr<TrajectoryWriter> trajectory;
+  if (root) {
+    series = std::make_unique<TimeSeries>(dir / "timeseries.csv");
+    trajectory = std::make_unique<TrajectoryWriter>((dir / "trajectory.h5").string(), scene);
+  }
+  // Collective: bodies gathered in id order, one H5MD frame written by rank 0.
+  auto write_frame = [&]() {
+    ScopedRegion r(sim.timers(), Region::kOutput);
+    const Particles bodies = sim.gather_bodies();
+    if (trajectory) trajectory->append(bodies, sim.current_step(), sim.time());
+  };
   // Frank constants: only when the scene asks (a scene pays only for what it uses).
   std::unique_ptr<FrankAccumulator> frank;
   if (scene.frank && root)
@@ -239,6 +250,8 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       sim.step();
       if (options.verify) sim.verify_bodies();
       const long long step = sim.current_step();
+      if (scene.snapshot_interval > 0 && step % scene.snapshot_interval == 0 && step != total_steps)
+        write_frame();
       if (scene.frank && step > scene.equilibration_steps &&
           (step - scene.equilibration_steps) % fourier_every == 0) {
         ScopedRegion r(sim.timers(), Region::kFourier);
@@ -270,6 +283,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     if (!quiet && live) fmt::print("\n");
   }
 
+  write_frame();  // the final state, also after a physics failure (for a post-mortem)
   const double wall =
       comm.max("summary", {std::chrono::duration<double>(Clock::now() - start).count()})[0];
   const double production_time = static_cast<double>(scene.steps) * scene.dt;

@@ -55,6 +55,7 @@ constexpr KeySpec kKeys[] = {
     {"run", "skin"},
     {"output", "dir", true},
     {"output", "log_interval"},
+    {"output", "snapshot_interval"},
     {"observables", "frank"},
     {"observables", "fourier_kmax"},
     {"observables", "fourier_interval"},
@@ -611,6 +612,7 @@ void read_output(Reader &in, Scene &scene) {
   in.get("output", "dir", scene.output_dir) &&
       in.check("output", "dir", !scene.output_dir.empty(), "must not be empty");
   read_at_least(in, "output", "log_interval", scene.log_interval, 0);
+  read_at_least(in, "output", "snapshot_interval", scene.snapshot_interval, 0);
 }
 
 // The Frank-constant sampling costs nothing unless asked for.
@@ -694,7 +696,8 @@ std::string scene_to_toml(const Scene &scene) {
       << "skin = " << format_real(scene.skin) << "\n\n"
       << "[output]\n"
       << "dir = " << quote(scene.output_dir) << "\n"
-      << "log_interval = " << scene.log_interval << "\n\n"
+      << "log_interval = " << scene.log_interval << "\n"
+      << "snapshot_interval = " << scene.snapshot_interval << "\n\n"
       << "[observables]\n"
       << "frank = " << (scene.frank ? "true" : "false") << "\n"
       << "fourier_kmax = " << scene.fourier_kmax << "\n"

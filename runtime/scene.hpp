@@ -48,6 +48,7 @@ struct Scene {
   // [output]
   std::string output_dir = "runs/default";
   long long log_interval = 0;  // steps between plain progress lines; 0 = auto
+  long long snapshot_interval = 0;  // steps between H5MD frames; 0 = the final state only
   // [observables]
   bool frank = false;              // accumulate the Fourier order tensor (Frank constants)
   int fourier_kmax = 10;           // modes -kmax < k_a < kmax, k != 0

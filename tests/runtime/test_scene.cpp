@@ -95,7 +95,8 @@ bool same(const Scene &a, const Scene &b) {
          a.thermostat_interval == b.thermostat_interval && a.sample_interval == b.sample_interval &&
          a.max_overlap == b.max_overlap && a.solver_tolerance == b.solver_tolerance &&
          a.solver_max_iterations == b.solver_max_iterations && a.skin == b.skin &&
-         a.output_dir == b.output_dir && a.log_interval == b.log_interval && a.frank == b.frank &&
+         a.output_dir == b.output_dir && a.log_interval == b.log_interval &&
+         a.snapshot_interval == b.snapshot_interval && a.frank == b.frank &&
          a.fourier_kmax == b.fourier_kmax && a.fourier_interval == b.fourier_interval;
 }
 
