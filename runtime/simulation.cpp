@@ -525,8 +525,8 @@ void Simulation::verify_bodies() {
 
 OrderParameter Simulation::order() {
   const AxisMoments m = axis_moments(particles_, owned_);
-  return order_parameter(moments_from(comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz}),
-                                      scene_.n));
+  return order_parameter(
+      moments_from(comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz}), scene_.n));
 }
 
 FourierOrderTensor Simulation::fourier_order(int kmax) {
