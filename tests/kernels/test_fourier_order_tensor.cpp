@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "kernels/fourier_order_tensor.hpp"
+#include "tests/thread_count_guard.hpp"
 
 namespace hardrod {
 namespace {
@@ -68,14 +69,7 @@ ComplexTensor3 direct_qk(const Particles &p, const Box &box, int kx, int ky, int
   return q;
 }
 
-class ThreadCountGuard {
- public:
-  ThreadCountGuard() : saved_(omp_get_max_threads()) {}
-  ~ThreadCountGuard() { omp_set_num_threads(saved_); }
-
- private:
-  int saved_;
-};
+using testing::ThreadCountGuard;
 
 TEST(FourierOrderTensor, HalfSpaceHoldsOneOfEachPlusMinusPair) {
   const int kmax = 4;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "kernels/order_tensor.hpp"
+#include "tests/thread_count_guard.hpp"
 
 namespace hardrod {
 namespace {
@@ -96,15 +97,7 @@ void expect_same_sums(const AxisMoments &a, const AxisMoments &b) {
   EXPECT_EQ(a.count, b.count);
 }
 
-// Restores the OpenMP thread count a test changed.
-class ThreadCountGuard {
- public:
-  ThreadCountGuard() : saved_(omp_get_max_threads()) {}
-  ~ThreadCountGuard() { omp_set_num_threads(saved_); }
-
- private:
-  int saved_;
-};
+using testing::ThreadCountGuard;
 
 TEST(OrderTensor, PerfectAlignmentGivesFullOrderAlongTheAxis) {
   for (const Vec3 &axis :
