@@ -14,6 +14,7 @@
 #include "kernels/block_average.hpp"
 #include "kernels/fourier_order_tensor.hpp"
 #include "kernels/order_tensor.hpp"
+#include "perf/counters.hpp"
 #include "perf/topology.hpp"
 #include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
@@ -177,6 +178,8 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     std::fflush(stdout);
   }
 
+  HardwareCounters counters;
+  counters.start();
   const auto start = Clock::now();
   auto last_print = start;
   std::string failure;
@@ -283,6 +286,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     if (!quiet && live) fmt::print("\n");
   }
 
+  counters.stop();
   write_frame();  // the final state, also after a physics failure (for a post-mortem)
   const double wall =
       comm.max("summary", {std::chrono::duration<double>(Clock::now() - start).count()})[0];
@@ -359,6 +363,13 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   for (int r = 0; r < static_cast<int>(Region::kCount); ++r)
     timers[region_name(static_cast<Region>(r))] = sim.timers().seconds(static_cast<Region>(r));
   summary["timers"] = timers;
+  nlohmann::json hw;
+  hw["available"] = counters.available();
+  if (counters.available())
+    for (const auto &[name, value] : counters.values()) hw[name] = value;
+  else
+    hw["reason"] = counters.reason();
+  summary["hardware_counters"] = hw;  // rank 0's threads
   // Communication per step per rank, averaged over ranks, by communication step.
   nlohmann::json traffic = nlohmann::json::object();
   const double rank_steps =
@@ -396,6 +407,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
 
   if (!quiet) {
     fmt::print("\n{}", sim.timers().table(particle_steps));
+    fmt::print("counters: {}\n", counters.report());
     auto pm = [](const Estimate &e) {
       return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
                                     : fmt::format("{:.4f} (no error: too few samples)", e.mean);
