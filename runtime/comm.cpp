@@ -168,6 +168,4 @@ void Communicator::broadcast(const std::string &name, std::vector<char> &data) {
   t.bytes += static_cast<long long>(data.size());
 }
 
-void Communicator::barrier() { MPI_Barrier(MPI_COMM_WORLD); }
-
 }  // namespace hardrod

@@ -53,7 +53,6 @@ class Communicator {
   std::vector<char> gather(const std::string &name, const std::vector<char> &local);
   // Rank 0's bytes to everyone (the buffer must already have rank 0's size everywhere).
   void broadcast(const std::string &name, std::vector<char> &data);
-  void barrier();
 
   const std::map<std::string, TrafficCounter> &traffic() const { return traffic_; }
 

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 
 #include "kernels/block_average.hpp"
 #include "kernels/fourier_order_tensor.hpp"
@@ -151,7 +152,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   long long log_every = scene.log_interval;
   if (log_every <= 0) log_every = std::max<long long>(scene.sample_interval, total_steps / 20);
 
-  std::vector<Sample> samples;
+  std::optional<Sample> last_sample;  // for the progress line
   std::vector<double> s_series, p_series, z_series;
   long long collisions_total = 0, production_collisions = 0, narrow_tests = 0, contacts = 0,
             multi_bodies = 0, clusters = 0, solver_iterations_max = 0, solver_unconverged = 0;
@@ -224,7 +225,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     running_sum += s.pressure_star;
     ++running_count;
     if (series) series->write(s, scene.dt, running_sum / running_count);
-    samples.push_back(s);
+    last_sample = s;
   };
 
   auto progress = [&](bool final_line) {
@@ -233,7 +234,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     const long long done = sim.current_step();
     const double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
     const double eta_s = rate > 0 ? static_cast<double>(total_steps - done) / rate : 0.0;
-    const Sample *last = samples.empty() ? nullptr : &samples.back();
+    const Sample *last = last_sample ? &*last_sample : nullptr;
     const std::string line = fmt::format(
         "step {:>{}}/{} {:<5} t = {:.4g} tau  {:.3g} steps/s  ETA {:<7} S = {}  P* = {}", done,
         std::to_string(total_steps).size(), total_steps,

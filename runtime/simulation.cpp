@@ -426,12 +426,6 @@ double Simulation::kinetic_energy() {
   return total.value();
 }
 
-double Simulation::temperature() {
-  const double dof =
-      static_cast<double>(scene_.shape.degrees_of_freedom()) * static_cast<double>(scene_.n) - 3.0;
-  return 2.0 * kinetic_energy() / dof;
-}
-
 Observation Simulation::observe() {
   Observation o;
   o.step = step_;

@@ -93,7 +93,6 @@ class Simulation {
   // Collective: total kinetic energy (exact sum over owned bodies of all ranks).
   double kinetic_energy();
   double target_kinetic_energy() const { return kinetic_target_; }
-  double temperature();
   // Relative kinetic-energy error each thermostat application found (drift record).
   const std::vector<double> &thermostat_corrections() const { return thermostat_corrections_; }
   // Collective: the order parameter (S, director) of all bodies.
