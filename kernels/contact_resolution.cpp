@@ -99,7 +99,7 @@ ContactClusters find_clusters(const std::vector<Contact> &contacts) {
 
 ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
                                  const ContactClusters &cc, const std::vector<char> &active,
-                                 const SolverSettings &settings) {
+                                 const SolverSettings &settings, std::size_t counted_below) {
   ResolutionStats stats;
   const double inv_m = 1.0 / shape.mass;
   const double inv_i = shape.inverse_inertia();
@@ -129,7 +129,8 @@ ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<C
         if (lambda > 0.0) apply_impulse(p, c, lambda, inv_m, inv_i);
         continue;
       }
-      ++clusters;
+      const bool counted = contacts[by_cluster[begin]].i < counted_below;
+      if (counted) ++clusters;
       std::vector<std::uint32_t> members;
       double scale = 0.0;
       for (std::size_t k = begin; k < end; ++k) {
@@ -138,7 +139,9 @@ ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<C
         members.push_back(c.j);
         scale = std::max(scale, std::fabs(c.approach_velocity));
       }
-      std::sort(members.begin(), members.end());
+      // In id order, so that the energy sums below round the same way on every rank.
+      std::sort(members.begin(), members.end(),
+                [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
       members.erase(std::unique(members.begin(), members.end()), members.end());
       double energy_before = 0.0;
       for (std::uint32_t b : members) energy_before += kinetic_energy_of(p, b, shape.mass, inertia);
@@ -159,6 +162,7 @@ ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<C
         }
         if (residual <= tolerance) break;
       }
+      if (!counted) continue;
       iterations_max = std::max(iterations_max, it + 1);
       if (it == settings.max_iterations) ++unconverged;
       double energy_after = 0.0;

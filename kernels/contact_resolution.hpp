@@ -46,10 +46,13 @@ struct ResolutionStats {
 };
 
 // Resolves the clusters with active[c] != 0 (all clusters when `active` is empty), writing
-// each contact's impulse and the velocities of its bodies.
+// each contact's impulse and the velocities of its bodies. A cluster enters the statistics
+// only if the body i of its first contact is below `counted_below` (on several ranks: the
+// owned bodies, so that every cluster is counted by exactly one rank).
 ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
                                  const ContactClusters &clusters, const std::vector<char> &active,
-                                 const SolverSettings &settings);
+                                 const SolverSettings &settings,
+                                 std::size_t counted_below = static_cast<std::size_t>(-1));
 
 // Convenience for one rank: find and resolve every cluster.
 ResolutionStats resolve_contacts(Particles &p, const Shape &shape, std::vector<Contact> &contacts,

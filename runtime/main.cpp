@@ -1,6 +1,8 @@
 // The hardrod command line: `hardrod run SCENE.toml [--set key=value ...] [--out DIR]`,
-// `hardrod info`. Exit status: 0 success, 1 usage, 2 bad scene or output directory,
-// 3 the physics broke (overlap beyond tolerance, NaN): the message says which step and dt.
+// `hardrod resume DIR [--set run.steps=N]`, `hardrod analyze DIR...`, `hardrod info`.
+// Exit status: 0 success, 1 usage, 2 bad scene, output directory or checkpoint, 3 the
+// physics broke (overlap beyond tolerance, NaN): the message says which step and dt,
+// 4 stopped by SIGTERM/SIGUSR1/SIGINT after writing a checkpoint (resume continues it).
 #include <fmt/format.h>
 #include <omp.h>
 
@@ -10,6 +12,7 @@
 #include <vector>
 
 #include "runtime/analyze.hpp"
+#include "runtime/checkpoint.hpp"
 #include "runtime/comm.hpp"
 #include "runtime/info.hpp"
 #include "runtime/run.hpp"
@@ -41,15 +44,32 @@ int main(int argc, char **argv) {
                 "after every step check that every body is owned once and every shadow equals "
                 "its owner (slow; for debugging)");
   std::string grid;
+  const auto grid_check = [](const std::string &g) {
+    int a, b, c;
+    char t;
+    if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
+      return std::string("--grid must look like 2x2x1 (three positive integers), got '") + g + "'";
+    return std::string();
+  };
   run->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
-      ->check([](const std::string &g) {
-        int a, b, c;
-        char t;
-        if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
-          return std::string("--grid must look like 2x2x1 (three positive integers), got '") + g +
-                 "'";
-        return std::string();
-      });
+      ->check(grid_check);
+
+  std::string resume_dir, checkpoint_path;
+  auto *resume = app.add_subcommand(
+      "resume", "continue a run from its newest checkpoint, exactly, to its (raised) step target");
+  resume->add_option("dir", resume_dir, "run directory")->required();
+  resume->add_option("--set", overrides,
+                     "raise the target or change output intervals, e.g. --set run.steps=200000")
+      ->type_name("KEY=VALUE");
+  resume->add_option("--checkpoint", checkpoint_path,
+                     "checkpoint file to continue from (default: DIR/checkpoint.h5)");
+  resume->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+      ->check(CLI::PositiveNumber);
+  resume->add_flag("--quiet", quiet, "no progress output");
+  resume->add_flag("--no-bind", no_bind, "do not bind OpenMP threads to cores");
+  resume->add_flag("--verify", options.verify, "check body bookkeeping after every step (slow)");
+  resume->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
+      ->check(grid_check);
 
   app.add_subcommand("info", "print the build configuration and the machine");
 
@@ -91,20 +111,33 @@ int main(int argc, char **argv) {
   if (!grid.empty())
     std::sscanf(grid.c_str(), "%dx%dx%d", &options.parallel.grid[0], &options.parallel.grid[1],
                 &options.parallel.grid[2]);
+  hardrod::install_stop_signals();  // before MPI start-up, so that no signal is lost
   hardrod::Communicator comm;  // initialises MPI (a single process without mpirun)
-  // Scene problems are found identically on every rank; rank 0 reports them.
+  // Problems are found identically on every rank; rank 0 reports them.
+  const bool resuming = app.got_subcommand("resume");
+  const std::string source = resuming ? resume_dir : scene_path;
   try {
-    const hardrod::Scene scene = hardrod::load_scene(scene_path, overrides);
-    hardrod::run_scene(scene, options);
+    if (resuming) {
+      hardrod::resume_run(resume_dir, overrides, options, checkpoint_path);
+    } else {
+      const hardrod::Scene scene = hardrod::load_scene(scene_path, overrides);
+      hardrod::run_scene(scene, options);
+    }
   } catch (const hardrod::SceneError &e) {
     if (comm.is_root()) {
-      fmt::print(stderr, "hardrod: error in {}:\n", scene_path);
+      fmt::print(stderr, "hardrod: error in {}:\n", source);
       for (const auto &p : e.problems()) fmt::print(stderr, "  {}\n", p);
     }
+    return 2;
+  } catch (const hardrod::CheckpointError &e) {
+    if (comm.is_root()) fmt::print(stderr, "hardrod: cannot resume: {}\n", e.what());
     return 2;
   } catch (const hardrod::PhysicsError &e) {
     if (comm.is_root()) fmt::print(stderr, "hardrod: the run stopped: {}\n", e.what());
     return 3;
+  } catch (const hardrod::RunInterrupted &e) {
+    if (comm.is_root()) fmt::print(stderr, "hardrod: {}\n", e.what());
+    return 4;
   }
   return 0;
 }

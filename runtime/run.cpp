@@ -4,7 +4,10 @@
 #include <omp.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -17,10 +20,31 @@
 #include "kernels/order_tensor.hpp"
 #include "perf/counters.hpp"
 #include "perf/topology.hpp"
+#include "runtime/checkpoint.hpp"
 #include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
 
 namespace hardrod {
+
+// JSON for the state types a checkpoint holds (ADL finds these in namespace hardrod).
+// ExactSum travels as its 128-bit integer in two hex words, so it comes back bit for bit.
+static void to_json(nlohmann::json &j, const ExactSum &e) {
+  const auto raw = static_cast<UInt128>(e.raw());
+  j = {{"high", fmt::format("{:016x}", static_cast<std::uint64_t>(raw >> 64))},
+       {"low", fmt::format("{:016x}", static_cast<std::uint64_t>(raw))},
+       {"poisoned", e.poisoned()}};
+}
+static void from_json(const nlohmann::json &j, ExactSum &e) {
+  const auto hi = std::stoull(j.at("high").get<std::string>(), nullptr, 16);
+  const auto lo = std::stoull(j.at("low").get<std::string>(), nullptr, 16);
+  const UInt128 raw = (static_cast<UInt128>(hi) << 64) | lo;
+  e = ExactSum::from_raw(static_cast<Int128>(raw), j.at("poisoned").get<bool>());
+}
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(IntervalTotals, steps, collisions, narrow_phase_tests, contacts,
+                                   multi_contact_bodies, clusters, solver_iterations_max,
+                                   solver_unconverged, max_depth, solver_energy_change, virial)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(ThermostatRecord, correction_sum, applications)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(AngularCounts, counts, total, invalid)
 
 namespace {
 
@@ -37,6 +61,42 @@ struct Sample {
   long long collisions = 0;  // cumulative
   double max_depth = 0.0;    // of the interval
 };
+
+// Everything the run accumulates besides the bodies: the contents of a checkpoint's
+// run_state (identical on every rank), so that a resumed run ends with the same numbers.
+struct RunState {
+  std::vector<double> s_series, p_series, z_series;  // production samples
+  long long collisions = 0, production_collisions = 0, narrow_tests = 0, contacts = 0,
+            multi_bodies = 0, clusters = 0, solver_iterations_max = 0, solver_unconverged = 0;
+  double max_depth = 0.0;
+  ExactSum solver_energy_change;
+  double running_sum = 0.0;  // of P* over this phase's samples (progress line)
+  long long running_count = 0;
+  double kinetic_start = 0.0;
+  AngularCounts angular;
+  double wall_seconds = 0.0;  // of earlier segments
+  long long segments = 0;     // run + resumes before this one
+  long long list_builds = 0;  // neighbour-list builds of earlier segments
+  // Output already written when the checkpoint was taken: a resume cuts the files back.
+  long long timeseries_bytes = 0;
+  long long trajectory_frames = 0;
+};
+
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RunState, s_series, p_series, z_series, collisions,
+                                   production_collisions, narrow_tests, contacts, multi_bodies,
+                                   clusters, solver_iterations_max, solver_unconverged, max_depth,
+                                   solver_energy_change, running_sum, running_count,
+                                   kinetic_start, angular, wall_seconds, segments, list_builds,
+                                   timeseries_bytes, trajectory_frames)
+
+// A checkpoint's run_state: the run's accumulators, the simulation's totals of the sampling
+// interval in progress (all ranks) and the thermostat record.
+struct SavedState {
+  RunState run;
+  IntervalTotals interval;
+  ThermostatRecord thermostat;
+};
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(SavedState, run, interval, thermostat)
 
 std::string duration_text(double seconds) {
   if (!std::isfinite(seconds) || seconds < 0) return "?";
@@ -69,10 +129,28 @@ void prepare_output_dir(const fs::path &dir, bool force) {
 
 class TimeSeries {
  public:
-  explicit TimeSeries(const fs::path &path) : out_(path) {
+  static constexpr const char *kHeader =
+      "step,time,phase,order_parameter,pressure_star,pressure_star_running,"
+      "kinetic_energy,temperature,collisions,max_overlap\n";
+  // A new file with the header, or (resume) the existing one cut back to `keep_bytes`.
+  TimeSeries(const fs::path &path, long long keep_bytes) : path_(path) {
+    if (keep_bytes >= 0) {
+      std::error_code ec;
+      const auto size = fs::file_size(path, ec);
+      if (ec || static_cast<long long>(size) < keep_bytes)
+        fmt::print(stderr,
+                   "hardrod: warning: {} has {} bytes, the checkpoint recorded {}; appending to "
+                   "what is there\n",
+                   path.string(), ec ? 0 : size, keep_bytes);
+      else
+        fs::resize_file(path, static_cast<std::uintmax_t>(keep_bytes));
+      out_.open(path, std::ios::app);
+    } else {
+      out_.open(path);
+      out_ << kHeader;
+      out_.flush();
+    }
     if (!out_) throw SceneError({fmt::format("cannot write {}", path.string())});
-    out_ << "step,time,phase,order_parameter,pressure_star,pressure_star_running,"
-            "kinetic_energy,temperature,collisions,max_overlap\n";
   }
   void write(const Sample &s, double dt, double running) {
     out_ << fmt::format("{},{:.10g},{},{:.8f},{:.8f},{:.8f},{:.10g},{:.8f},{},{:.6g}\n", s.step,
@@ -82,27 +160,100 @@ class TimeSeries {
                         s.max_depth);
     out_.flush();  // a killed run keeps every sample it took
   }
+  long long bytes() { return static_cast<long long>(out_.tellp()); }
 
  private:
+  fs::path path_;
   std::ofstream out_;
 };
 
-}  // namespace
+// The trajectory of a resumed run: the existing file cut back to the checkpoint's frames. A
+// file that cannot be reopened (a job killed while writing it) is kept under another name
+// and a new one is started, so nothing already written is lost.
+std::unique_ptr<TrajectoryWriter> reopen_trajectory(const fs::path &path, const Scene &scene,
+                                                    long long frames, long long step) {
+  try {
+    return std::make_unique<TrajectoryWriter>(path.string(), scene, frames);
+  } catch (const std::exception &e) {
+    const fs::path aside = path.string() + fmt::format(".before-step-{}", step);
+    std::error_code ec;
+    fs::rename(path, aside, ec);
+    fmt::print(stderr, "hardrod: warning: {}; kept it as {} and started a new trajectory\n",
+               e.what(), aside.string());
+    return std::make_unique<TrajectoryWriter>(path.string(), scene);
+  }
+}
 
-nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
+// Writes `text` to `path` through a temporary file and a rename.
+void write_atomically(const fs::path &path, const std::string &text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    if (!out) throw SceneError({fmt::format("cannot write {}", tmp.string())});
+  }
+  fs::rename(tmp, path);
+}
+
+nlohmann::json execute(const Scene &scene, const RunOptions &options, const Checkpoint *from) {
   const fs::path dir = options.output_dir.empty() ? scene.output_dir : options.output_dir;
-  Simulation sim(scene, options.parallel);
+  std::unique_ptr<Simulation> owned_sim =
+      from ? std::make_unique<Simulation>(scene, from->bodies, options.parallel, from->step)
+           : std::make_unique<Simulation>(scene, options.parallel);
+  Simulation &sim = *owned_sim;
   Communicator &comm = sim.comm();
   const bool root = comm.is_root();
+
+  // The run's accumulators: fresh, or the checkpoint's.
+  constexpr int kAngularBins = 50;
+  RunState st;
+  st.angular.counts.assign(kAngularBins, 0);
+  std::unique_ptr<FrankAccumulator> frank;
+  if (from) {
+    try {
+      const auto saved = nlohmann::json::parse(from->run_state).get<SavedState>();
+      st = saved.run;
+      if (static_cast<int>(st.angular.counts.size()) != kAngularBins)
+        throw std::invalid_argument("angular_counts has the wrong number of bins");
+      sim.restore_interval(saved.interval);
+      sim.restore_thermostat_record(saved.thermostat);
+      if (scene.frank && root) {
+        if (from->root_state.empty()) throw std::invalid_argument("the Frank accumulator is missing");
+        frank = std::make_unique<FrankAccumulator>(
+            FrankAccumulator::from_json(nlohmann::json::parse(from->root_state)));
+      }
+    } catch (const std::exception &e) {
+      throw CheckpointError(fmt::format("checkpoint at step {}: run_state unusable: {}",
+                                        from->step, e.what()));
+    }
+  } else {
+    st.kinetic_start = sim.kinetic_energy();
+    if (scene.frank && root)
+      frank = std::make_unique<FrankAccumulator>(scene.box, scene.n, scene.fourier_kmax);
+  }
+  const long long first_step = sim.current_step();
+
   // Rank 0 owns the output; every rank learns whether it could be prepared.
   std::string dir_problem;
+  std::unique_ptr<TimeSeries> series;
+  std::unique_ptr<TrajectoryWriter> trajectory;
   if (root) {
     try {
-      prepare_output_dir(dir, options.force);
-      std::ofstream s(dir / "scene.toml");
-      s << scene_to_toml(scene);
+      if (from) {
+        write_atomically(dir / "scene.toml", scene_to_toml(scene));
+        series = std::make_unique<TimeSeries>(dir / "timeseries.csv", st.timeseries_bytes);
+        trajectory =
+            reopen_trajectory(dir / "trajectory.h5", scene, st.trajectory_frames, from->step);
+      } else {
+        prepare_output_dir(dir, options.force);
+        write_atomically(dir / "scene.toml", scene_to_toml(scene));
+        series = std::make_unique<TimeSeries>(dir / "timeseries.csv", -1);
+        trajectory = std::make_unique<TrajectoryWriter>((dir / "trajectory.h5").string(), scene);
+      }
     } catch (const SceneError &e) {
       dir_problem = e.problems().front();
+    } catch (const std::exception &e) {
+      dir_problem = e.what();
     }
   }
   if (comm.sum("setup", dir_problem.empty() ? 0LL : 1LL) > 0)
@@ -122,27 +273,39 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     }
   }
   const TopologySummary topology = describe_topology();
-  std::unique_ptr<TimeSeries> series;
-  std::unique_ptr<TrajectoryWriter> trajectory;
-  if (root) {
-    series = std::make_unique<TimeSeries>(dir / "timeseries.csv");
-    trajectory = std::make_unique<TrajectoryWriter>((dir / "trajectory.h5").string(), scene);
-  }
+  long long last_frame_step = -1;
   // Collective: bodies gathered in id order, one H5MD frame written by rank 0.
   auto write_frame = [&]() {
     ScopedRegion r(sim.timers(), Region::kOutput);
     const Particles bodies = sim.gather_bodies();
     if (trajectory) trajectory->append(bodies, sim.current_step(), sim.time());
+    last_frame_step = sim.current_step();
   };
-  // Frank constants: only when the scene asks (a scene pays only for what it uses).
-  std::unique_ptr<FrankAccumulator> frank;
-  if (scene.frank && root)
-    frank = std::make_unique<FrankAccumulator>(scene.box, scene.n, scene.fourier_kmax);
+  // Collective: the bodies in id order and every accumulator, atomically to dir/checkpoint.h5.
+  auto write_checkpoint_now = [&](double wall_now) {
+    ScopedRegion r(sim.timers(), Region::kOutput);
+    sim.report_pending_problems();  // never checkpoint a state that already broke
+    Checkpoint c;
+    c.step = sim.current_step();
+    c.n = scene.n;
+    c.state_checksum = sim.state_checksum();
+    c.scene_toml = scene_to_toml(scene);
+    RunState saved = st;
+    saved.wall_seconds = st.wall_seconds + comm.max("checkpoint", {wall_now})[0];
+    saved.segments = st.segments + 1;
+    saved.list_builds = st.list_builds + sim.neighbor_list().builds;
+    // Rank 0's byte and frame counts for everyone (the state must be the same on all ranks).
+    const long long bytes = comm.sum("checkpoint", series ? series->bytes() : 0LL);
+    const long long frames = comm.sum("checkpoint", trajectory ? trajectory->frames() : 0LL);
+    saved.timeseries_bytes = bytes;
+    saved.trajectory_frames = frames;
+    c.run_state =
+        nlohmann::json(SavedState{saved, sim.pending_interval(), sim.thermostat_record()}).dump();
+    if (frank) c.root_state = frank->to_json().dump();
+    write_checkpoint(comm, dir, sim.particles(), sim.owned_count(), c);
+  };
   const long long fourier_every =
       scene.fourier_interval > 0 ? scene.fourier_interval : scene.sample_interval;
-  constexpr int kAngularBins = 50;
-  AngularCounts angular;
-  angular.counts.assign(kAngularBins, 0);
 
   const long long total_steps = scene.equilibration_steps + scene.steps;
   const double eta = scene.packing_fraction();
@@ -153,13 +316,6 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   if (log_every <= 0) log_every = std::max<long long>(scene.sample_interval, total_steps / 20);
 
   std::optional<Sample> last_sample;  // for the progress line
-  std::vector<double> s_series, p_series, z_series;
-  long long collisions_total = 0, production_collisions = 0, narrow_tests = 0, contacts = 0,
-            multi_bodies = 0, clusters = 0, solver_iterations_max = 0, solver_unconverged = 0;
-  double max_depth = 0.0, solver_energy_change = 0.0;
-  double running_sum = 0.0;
-  long long running_count = 0;
-  const double kinetic_start = sim.kinetic_energy();
 
   if (!quiet) {
     fmt::print(
@@ -173,6 +329,9 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
         "output {}\n",
         scene.dt, scene.equilibration_steps, scene.steps, comm.size(), omp_get_max_threads(),
         dir.string());
+    if (from)
+      fmt::print("hardrod: resumed from the checkpoint at step {} (state checksum {})\n",
+                 from->step, from->state_checksum);
     if (comm.size() > 1) fmt::print("hardrod: {}\n", sim.domain().describe());
     fmt::print("hardrod: machine {}; {}\n", topology.description, binding);
     for (const auto &p : placements) fmt::print("hardrod:   {}\n", p);
@@ -182,23 +341,27 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   HardwareCounters counters;
   counters.start();
   const auto start = Clock::now();
+  auto seconds_since_start = [&start]() {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+  };
   auto last_print = start;
   std::string failure;
+  std::string stopped_by;  // the signal that interrupted the run
 
   auto take_sample = [&](bool production) {
     ScopedRegion r(sim.timers(), Region::kObserve);
     const Observation o = sim.observe();  // collective: the same numbers on every rank
     const IntervalTotals &t = o.totals;
-    collisions_total += t.collisions;
-    narrow_tests += t.narrow_phase_tests;
-    contacts += t.contacts;
-    multi_bodies += t.multi_contact_bodies;
-    clusters += t.clusters;
-    solver_iterations_max = std::max(solver_iterations_max, t.solver_iterations_max);
-    solver_unconverged += t.solver_unconverged;
-    solver_energy_change += t.solver_energy_change;
-    max_depth = std::max(max_depth, t.max_depth);
-    if (production) production_collisions += t.collisions;
+    st.collisions += t.collisions;
+    st.narrow_tests += t.narrow_phase_tests;
+    st.contacts += t.contacts;
+    st.multi_bodies += t.multi_contact_bodies;
+    st.clusters += t.clusters;
+    st.solver_iterations_max = std::max(st.solver_iterations_max, t.solver_iterations_max);
+    st.solver_unconverged += t.solver_unconverged;
+    st.solver_energy_change += t.solver_energy_change;
+    st.max_depth = std::max(st.max_depth, t.max_depth);
+    if (production) st.production_collisions += t.collisions;
     if (t.steps == 0) return;
     Sample s;
     s.step = o.step;
@@ -214,17 +377,17 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     const double interval_time = static_cast<double>(t.steps) * scene.dt;
     const double z = 1.0 + t.virial.value() / (3.0 * n * s.temperature * interval_time);
     s.pressure_star = eta * z;
-    s.collisions = collisions_total;
+    s.collisions = st.collisions;
     s.max_depth = t.max_depth;
-    if (production) angular += sim.angular_distribution(o.director, kAngularBins);
+    if (production) st.angular += sim.angular_distribution(o.director, kAngularBins);
     if (production && t.steps == scene.sample_interval) {
-      s_series.push_back(s.order_parameter);
-      p_series.push_back(s.pressure_star);
-      z_series.push_back(z);
+      st.s_series.push_back(s.order_parameter);
+      st.p_series.push_back(s.pressure_star);
+      st.z_series.push_back(z);
     }
-    running_sum += s.pressure_star;
-    ++running_count;
-    if (series) series->write(s, scene.dt, running_sum / running_count);
+    st.running_sum += s.pressure_star;
+    ++st.running_count;
+    if (series) series->write(s, scene.dt, st.running_sum / st.running_count);
     last_sample = s;
   };
 
@@ -232,7 +395,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
     const auto now = Clock::now();
     const double elapsed = std::chrono::duration<double>(now - start).count();
     const long long done = sim.current_step();
-    const double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
+    const double rate = elapsed > 0 ? static_cast<double>(done - first_step) / elapsed : 0.0;
     const double eta_s = rate > 0 ? static_cast<double>(total_steps - done) / rate : 0.0;
     const Sample *last = last_sample ? &*last_sample : nullptr;
     const std::string line = fmt::format(
@@ -240,7 +403,7 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
         std::to_string(total_steps).size(), total_steps,
         done <= scene.equilibration_steps ? "equil" : "prod", sim.time(), rate,
         duration_text(eta_s), last ? fmt::format("{:.4f}", last->order_parameter) : "-",
-        running_count ? fmt::format("{:.4f}", running_sum / running_count) : "-");
+        st.running_count ? fmt::format("{:.4f}", st.running_sum / st.running_count) : "-");
     if (live)
       fmt::print("\r{}\033[K{}", line, final_line ? "\n" : "");
     else
@@ -250,12 +413,17 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   };
 
   try {
+    auto on_schedule = [&](long long step) {  // a step that closes a sampling interval
+      return step == scene.equilibration_steps ||
+             (step > scene.equilibration_steps &&
+              (step - scene.equilibration_steps) % scene.sample_interval == 0);
+    };
     while (sim.current_step() < total_steps) {
+      sim.request_stop(stop_signal() != 0);
       sim.step();
       if (options.verify) sim.verify_bodies();
       const long long step = sim.current_step();
-      if (scene.snapshot_interval > 0 && step % scene.snapshot_interval == 0 && step != total_steps)
-        write_frame();
+      if (scene.snapshot_interval > 0 && step % scene.snapshot_interval == 0) write_frame();
       if (scene.frank && step > scene.equilibration_steps &&
           (step - scene.equilibration_steps) % fourier_every == 0) {
         ScopedRegion r(sim.timers(), Region::kFourier);
@@ -265,11 +433,20 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       }
       if (step == scene.equilibration_steps) {
         take_sample(false);  // closes equilibration; production intervals start clean
-        running_sum = 0.0;
-        running_count = 0;
-      } else if ((step - scene.equilibration_steps) % scene.sample_interval == 0 ||
-                 step == total_steps) {
-        take_sample(step > scene.equilibration_steps);
+        st.running_sum = 0.0;
+        st.running_count = 0;
+      } else if (on_schedule(step)) {
+        take_sample(true);
+      }
+      // Checkpoints: on schedule, at the end, and when a signal asked for a stop. Taken
+      // before a last partial sample, so that a resume continues the same intervals.
+      const bool stop = sim.stop_agreed();
+      if (stop || step == total_steps ||
+          (scene.checkpoint_interval > 0 && step % scene.checkpoint_interval == 0))
+        write_checkpoint_now(seconds_since_start());
+      if (stop) {
+        stopped_by = stop_signal_name();
+        break;
       }
       if (!quiet) {
         if (live) {
@@ -281,6 +458,9 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
         }
       }
     }
+    // A last, shorter interval (not in the block averages, but in the totals).
+    if (stopped_by.empty() && sim.current_step() == total_steps && !on_schedule(total_steps))
+      take_sample(total_steps > scene.equilibration_steps);
     if (!quiet && live) progress(true);
   } catch (const PhysicsError &e) {
     failure = e.what();
@@ -288,34 +468,37 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   }
 
   counters.stop();
-  write_frame();  // the final state, also after a physics failure (for a post-mortem)
-  const double wall =
-      comm.max("summary", {std::chrono::duration<double>(Clock::now() - start).count()})[0];
-  const double production_time = static_cast<double>(scene.steps) * scene.dt;
+  // The final state, also after a physics failure (for a post-mortem).
+  if (last_frame_step != sim.current_step() && stopped_by.empty()) write_frame();
+  const double wall = comm.max("summary", {seconds_since_start()})[0];
+  const long long steps_done = sim.current_step();
+  const double production_time =
+      static_cast<double>(std::max<long long>(0, steps_done - scene.equilibration_steps)) *
+      scene.dt;
   const double simulated = sim.time();
-  const double particle_steps = n * static_cast<double>(sim.current_step());
+  const double particle_steps = n * static_cast<double>(steps_done - first_step);
 
   // Energy drift: relative kinetic-energy change per tau that the thermostat had to undo,
   // or, with the thermostat off, the change over the whole run.
   double drift = 0.0;
-  const auto &corrections = sim.thermostat_corrections();
-  if (!corrections.empty()) {
-    double sum = 0.0;
-    for (double c : corrections) sum += c;
-    drift = sum / (static_cast<double>(corrections.size()) *
-                   static_cast<double>(scene.thermostat_interval) * scene.dt);
+  const ThermostatRecord &thermostat = sim.thermostat_record();
+  if (thermostat.applications > 0) {
+    drift = thermostat.correction_sum / (static_cast<double>(thermostat.applications) *
+                                         static_cast<double>(scene.thermostat_interval) * scene.dt);
   } else if (simulated > 0) {
-    drift = (sim.kinetic_energy() / kinetic_start - 1.0) / simulated;
+    drift = (sim.kinetic_energy() / st.kinetic_start - 1.0) / simulated;
   }
 
-  const Estimate s_est = block_average(s_series);
-  const Estimate p_est = block_average(p_series);
-  const Estimate z_est = block_average(z_series);
-  const EquilibrationCheck s_eq = check_equilibration(s_series);
-  const EquilibrationCheck p_eq = check_equilibration(p_series);
+  const Estimate s_est = block_average(st.s_series);
+  const Estimate p_est = block_average(st.p_series);
+  const Estimate z_est = block_average(st.z_series);
+  const EquilibrationCheck s_eq = check_equilibration(st.s_series);
+  const EquilibrationCheck p_eq = check_equilibration(st.p_series);
 
+  const std::string status =
+      !failure.empty() ? "failed" : (!stopped_by.empty() ? "interrupted" : "completed");
   nlohmann::json summary = {
-      {"status", failure.empty() ? "completed" : "failed"},
+      {"status", status},
       {"shape", scene.shape_name},
       {"n", scene.n},
       {"aspect_ratio", scene.shape.length},
@@ -326,30 +509,32 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       {"seed", scene.seed},
       {"equilibration_steps", scene.equilibration_steps},
       {"steps", scene.steps},
-      {"steps_done", sim.current_step()},
+      {"steps_done", steps_done},
       {"simulated_time", simulated},
       {"production_time", production_time},
       {"pressure_star", estimate_json(p_est)},
       {"order_parameter", estimate_json(s_est)},
       {"compressibility_factor", estimate_json(z_est)},
       {"equilibrated", s_eq.equilibrated && p_eq.equilibrated},
-      {"collisions", collisions_total},
-      {"collision_rate", production_time > 0 ? 2.0 * static_cast<double>(production_collisions) /
+      {"collisions", st.collisions},
+      {"collision_rate", production_time > 0 ? 2.0 * static_cast<double>(st.production_collisions) /
                                                    (n * production_time)
                                              : 0.0},
-      {"contacts_per_step",
-       sim.current_step() ? static_cast<double>(contacts) / sim.current_step() : 0.0},
-      {"multi_contact_bodies", multi_bodies},
-      {"multi_contact_clusters", clusters},
-      {"solver_iterations_max", solver_iterations_max},
-      {"solver_unconverged", solver_unconverged},
-      {"solver_energy_change", solver_energy_change},
+      {"contacts_per_step", steps_done ? static_cast<double>(st.contacts) / steps_done : 0.0},
+      {"multi_contact_bodies", st.multi_bodies},
+      {"multi_contact_clusters", st.clusters},
+      {"solver_iterations_max", st.solver_iterations_max},
+      {"solver_unconverged", st.solver_unconverged},
+      {"solver_energy_change", st.solver_energy_change.value()},
       {"narrow_phase_tests_per_step",
-       sim.current_step() ? static_cast<double>(narrow_tests) / sim.current_step() : 0.0},
-      {"neighbor_list_builds", sim.neighbor_list().builds},
-      {"max_overlap", max_depth},
+       steps_done ? static_cast<double>(st.narrow_tests) / steps_done : 0.0},
+      {"neighbor_list_builds", st.list_builds + sim.neighbor_list().builds},
+      {"max_overlap", st.max_depth},
       {"energy_drift", drift},
       {"wall_seconds", wall},
+      {"wall_seconds_total", st.wall_seconds + wall},
+      {"segments", st.segments + 1},
+      {"first_step", first_step},
       {"particle_steps_per_second", wall > 0 ? particle_steps / wall : 0.0},
       {"ns_per_particle_step", particle_steps > 0 ? 1e9 * wall / particle_steps : 0.0},
       {"ranks", comm.size()},
@@ -374,9 +559,9 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   // Communication per step per rank, averaged over ranks, by communication step.
   nlohmann::json traffic = nlohmann::json::object();
   const double rank_steps =
-      static_cast<double>(comm.size()) * std::max<long long>(1, sim.current_step());
-  for (const char *name :
-       {"agree", "migrate", "shadows", "degrees", "results", "observe", "kinetic_energy"}) {
+      static_cast<double>(comm.size()) * std::max<long long>(1, steps_done - first_step);
+  for (const char *name : {"agree", "migrate", "shadows", "degrees", "results", "observe",
+                           "kinetic_energy", "checkpoint"}) {
     const auto it = comm.traffic().find(name);
     const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
     const long long messages = comm.sum("summary", c.messages);
@@ -386,25 +571,22 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
   }
   summary["communication_per_rank"] = traffic;
   if (!failure.empty()) summary["error"] = failure;
+  if (!stopped_by.empty()) summary["stopped_by"] = stopped_by;
   if (frank) {
     frank->save((dir / "frank.json").string());
     summary["frank_samples"] = frank->samples();
   }
-  if (root && angular.total > 0) {
+  if (root && st.angular.total > 0) {
     nlohmann::json a;
     a["bins"] = kAngularBins;
     a["description"] =
         "distribution of |cos theta| between axes and the director over production samples, "
         "normalised so that the isotropic distribution is 1 in every bin";
-    a["normalised"] = angular.normalised();
-    a["total"] = angular.total;
-    std::ofstream out(dir / "angular.json");
-    out << a.dump(1) << "\n";
+    a["normalised"] = st.angular.normalised();
+    a["total"] = st.angular.total;
+    write_atomically(dir / "angular.json", a.dump(1) + "\n");
   }
-  if (root) {
-    std::ofstream out(dir / "summary.json");
-    out << summary.dump(2) << "\n";
-  }
+  if (root) write_atomically(dir / "summary.json", summary.dump(2) + "\n");
 
   if (!quiet) {
     fmt::print("\n{}", sim.timers().table(particle_steps));
@@ -413,14 +595,14 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
       return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
                                     : fmt::format("{:.4f} (no error: too few samples)", e.mean);
     };
-    fmt::print("\nresults over {} production samples ({:.4g} tau):\n", s_series.size(),
+    fmt::print("\nresults over {} production samples ({:.4g} tau):\n", st.s_series.size(),
                production_time);
     fmt::print("  order parameter S        {}\n", pm(s_est));
     fmt::print("  pressure P*              {}\n", pm(p_est));
     fmt::print("  compressibility Z        {}\n", pm(z_est));
     fmt::print("  collision rate           {:.4g} per particle per tau\n",
                summary["collision_rate"].get<double>());
-    fmt::print("  max overlap              {:.3g} D\n", max_depth);
+    fmt::print("  max overlap              {:.3g} D\n", st.max_depth);
     fmt::print("  energy drift             {:.3g} per tau\n", drift);
     fmt::print("  equilibrated             {}\n",
                summary["equilibrated"].get<bool>()
@@ -431,9 +613,90 @@ nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
                summary["particle_steps_per_second"].get<double>());
     fmt::print("  state checksum           {}\n", summary["state_checksum"].get<std::string>());
     fmt::print("  summary                  {}\n", (dir / "summary.json").string());
+    std::fflush(stdout);
   }
   if (!failure.empty()) throw PhysicsError(failure);
+  if (!stopped_by.empty())
+    throw RunInterrupted(fmt::format(
+        "stopped by {} at step {} of {}; checkpoint {}; continue with: hardrod resume {}",
+        stopped_by, steps_done, total_steps, (dir / kCheckpointFile).string(), dir.string()));
   return summary;
+}
+
+// Keys a resume may change: the step target and how often things are written.
+const std::array<std::string, 4> kResumableKeys = {"run.steps", "output.checkpoint_interval",
+                                                   "output.snapshot_interval",
+                                                   "output.log_interval"};
+
+}  // namespace
+
+namespace {
+volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void on_stop_signal(int signal) { g_stop_signal = signal; }
+}  // namespace
+
+void install_stop_signals() {
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  action.sa_flags = SA_RESETHAND;  // a second signal acts at once (Ctrl-C twice kills)
+  sigemptyset(&action.sa_mask);
+  for (int s : {SIGTERM, SIGUSR1, SIGINT}) sigaction(s, &action, nullptr);
+}
+
+int stop_signal() { return g_stop_signal; }
+
+std::string stop_signal_name() {
+  switch (g_stop_signal) {
+    case SIGTERM: return "SIGTERM";
+    case SIGUSR1: return "SIGUSR1";
+    case SIGINT: return "SIGINT";
+    default: return "a signal to another rank";
+  }
+}
+
+nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
+  return execute(scene, options, nullptr);
+}
+
+nlohmann::json resume_run(const std::string &dir, const std::vector<std::string> &overrides,
+                          const RunOptions &options, const std::string &checkpoint_path) {
+  std::vector<std::string> problems;
+  for (const auto &o : overrides) {
+    const std::string key = o.substr(0, o.find('='));
+    if (std::find(kResumableKeys.begin(), kResumableKeys.end(), key) == kResumableKeys.end())
+      problems.push_back(fmt::format(
+          "--set {}: cannot be changed on resume (the run continues exactly); resume may "
+          "change run.steps, output.checkpoint_interval, output.snapshot_interval and "
+          "output.log_interval",
+          o));
+  }
+  if (!problems.empty()) throw SceneError(problems);
+  const fs::path path = checkpoint_path.empty() ? fs::path(dir) / kCheckpointFile
+                                                : fs::path(checkpoint_path);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw CheckpointError(fmt::format("{}: no such run directory", dir));
+  if (checkpoint_path.empty() && !fs::exists(path, ec) &&
+      fs::exists(fs::path(dir) / kPreviousCheckpointFile, ec))
+    throw CheckpointError(fmt::format(
+        "{}: missing (the job was probably killed while replacing it); the previous one is "
+        "complete: hardrod resume {} --checkpoint {}",
+        path.string(), dir, (fs::path(dir) / kPreviousCheckpointFile).string()));
+  Checkpoint c = read_checkpoint(path);
+  const Scene scene = parse_scene(c.scene_toml, overrides, path.string() + ":/scene");
+  if (scene.n != c.n)
+    throw CheckpointError(fmt::format("{}: the scene has n = {}, the bodies {}", path.string(),
+                                      scene.n, c.n));
+  const long long total = scene.equilibration_steps + scene.steps;
+  if (total < c.step)
+    throw SceneError({fmt::format(
+        "run.steps = {}: the checkpoint is at step {} already (equilibration {} + production "
+        "{} steps); raise run.steps to at least {}",
+        scene.steps, c.step, scene.equilibration_steps, scene.steps,
+        c.step - scene.equilibration_steps)});
+  RunOptions o = options;
+  o.output_dir = dir;
+  return execute(scene, o, &c);
 }
 
 }  // namespace hardrod

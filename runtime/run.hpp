@@ -4,6 +4,8 @@
 #pragma once
 
 #include <functional>
+#include <stdexcept>
+#include <vector>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -27,5 +29,29 @@ struct RunOptions {
 // SceneError for an unusable output directory and PhysicsError when the physics breaks
 // (after writing what was measured so far).
 nlohmann::json run_scene(const Scene &scene, const RunOptions &options);
+
+// SIGTERM, SIGUSR1 and SIGINT then only set a flag: the run agrees on it in the next step's
+// reduction, finishes that step, writes a checkpoint and throws RunInterrupted. Installed by
+// main() before MPI starts, so a signal during start-up is not lost either; a second signal
+// of the same kind takes its default action (Ctrl-C twice kills at once) (batch systems send
+// SIGTERM, or a chosen signal, some time before the wall-clock limit).
+void install_stop_signals();
+int stop_signal();  // the last stop signal received, 0 if none
+std::string stop_signal_name();
+
+// A run stopped on request (SIGTERM, SIGUSR1, SIGINT) after writing a checkpoint; the
+// message says how to resume. Thrown on every rank after summary.json was written.
+class RunInterrupted : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Continues the run in `dir` from its newest complete checkpoint (or `checkpoint_path`) to
+// the step target of the stored scene with `overrides` (only run.steps and output
+// intervals may change), exactly: the result equals the uninterrupted run's, on any rank
+// or thread count. Throws CheckpointError for an unusable checkpoint and SceneError for a
+// bad override, before anything in `dir` is changed.
+nlohmann::json resume_run(const std::string &dir, const std::vector<std::string> &overrides,
+                          const RunOptions &options, const std::string &checkpoint_path = "");
 
 }  // namespace hardrod

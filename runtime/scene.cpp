@@ -40,8 +40,11 @@ constexpr KeySpec kKeys[] = {
     {"system", "reduced_density"},
     {"system", "packing_fraction"},
     {"system", "box"},
+    {"init", "configuration", true},
     {"init", "lattice"},
     {"init", "axis", true},
+    {"init", "file", true},
+    {"init", "frame"},
     {"init", "seed"},
     {"init", "temperature"},
     {"run", "dt"},
@@ -56,6 +59,7 @@ constexpr KeySpec kKeys[] = {
     {"output", "dir", true},
     {"output", "log_interval"},
     {"output", "snapshot_interval"},
+    {"output", "checkpoint_interval"},
     {"observables", "frank"},
     {"observables", "fourier_kmax"},
     {"observables", "fourier_interval"},
@@ -63,6 +67,7 @@ constexpr KeySpec kKeys[] = {
 constexpr std::string_view kSections[] = {"system", "init", "run", "output", "observables"};
 constexpr std::string_view kDensityKeys[] = {"reduced_density", "packing_fraction", "box"};
 constexpr std::string_view kAxisNames[] = {"x", "y", "z"};
+constexpr std::string_view kConfigurations[] = {"lattice", "file"};  // order of Configuration
 
 // ---- text -------------------------------------------------------------------------------
 
@@ -592,7 +597,21 @@ void read_init(Reader &in, Scene &scene, Validity &ok) {
   in.get("init", "temperature", scene.temperature) &&
       in.check("init", "temperature", std::isfinite(scene.temperature) && scene.temperature > 0.0,
                "must be > 0 and finite");
-  read_lattice(in, scene, ok);
+  std::string configuration = "lattice";
+  if (in.get("init", "configuration", configuration)) {
+    const auto known = std::find(std::begin(kConfigurations), std::end(kConfigurations),
+                                 configuration);
+    if (in.check("init", "configuration", known != std::end(kConfigurations),
+                 "must be \"lattice\" or \"file\""))
+      scene.configuration = static_cast<Configuration>(known - std::begin(kConfigurations));
+  }
+  if (scene.configuration == Configuration::kFile) {
+    in.get("init", "file", scene.init_file, kRequired) &&
+        in.check("init", "file", !scene.init_file.empty(), "must name an H5MD file");
+    in.get("init", "frame", scene.init_frame);
+  }
+  // The lattice is read (and must fit) only when the bodies start on it.
+  if (scene.configuration == Configuration::kLattice) read_lattice(in, scene, ok);
 }
 
 void read_run(Reader &in, Scene &scene) {
@@ -613,6 +632,7 @@ void read_output(Reader &in, Scene &scene) {
       in.check("output", "dir", !scene.output_dir.empty(), "must not be empty");
   read_at_least(in, "output", "log_interval", scene.log_interval, 0);
   read_at_least(in, "output", "snapshot_interval", scene.snapshot_interval, 0);
+  read_at_least(in, "output", "checkpoint_interval", scene.checkpoint_interval, 0);
 }
 
 // The Frank-constant sampling costs nothing unless asked for.
@@ -679,8 +699,15 @@ std::string scene_to_toml(const Scene &scene) {
       << "box = [" << format_real(box.x) << ", " << format_real(box.y) << ", " << format_real(box.z)
       << "]\n\n"
       << "[init]\n"
-      << "lattice = [" << scene.lattice[0] << ", " << scene.lattice[1] << ", " << scene.lattice[2]
-      << "]\n"
+      << "configuration = "
+      << quote(kConfigurations[static_cast<std::size_t>(scene.configuration)]) << "\n";
+  if (scene.configuration == Configuration::kLattice)
+    out << "lattice = [" << scene.lattice[0] << ", " << scene.lattice[1] << ", "
+        << scene.lattice[2] << "]\n";
+  if (scene.configuration == Configuration::kFile)
+    out << "file = " << quote(scene.init_file) << "\n"
+        << "frame = " << scene.init_frame << "\n";
+  out
       << "axis = " << quote(kAxisNames[std::clamp(scene.axis, 0, 2)]) << "\n"
       << "seed = " << scene.seed << "\n"
       << "temperature = " << format_real(scene.temperature) << "\n\n"
@@ -697,7 +724,8 @@ std::string scene_to_toml(const Scene &scene) {
       << "[output]\n"
       << "dir = " << quote(scene.output_dir) << "\n"
       << "log_interval = " << scene.log_interval << "\n"
-      << "snapshot_interval = " << scene.snapshot_interval << "\n\n"
+      << "snapshot_interval = " << scene.snapshot_interval << "\n"
+      << "checkpoint_interval = " << scene.checkpoint_interval << "\n\n"
       << "[observables]\n"
       << "frank = " << (scene.frank ? "true" : "false") << "\n"
       << "fourier_kmax = " << scene.fourier_kmax << "\n"

@@ -24,6 +24,9 @@ class SceneError : public std::runtime_error {
   std::vector<std::string> problems_;
 };
 
+// Where the bodies start: the aligned lattice, or positions and axes read from an H5MD file.
+enum class Configuration { kLattice, kFile };
+
 struct Scene {
   // [system]
   std::string shape_name = "spherocylinder";  // "spherocylinder" or "sphere"
@@ -31,7 +34,10 @@ struct Scene {
   long long n = 0;
   Box box;  // from reduced_density, packing_fraction or box
   // [init]
+  Configuration configuration = Configuration::kLattice;
   std::array<long long, 3> lattice{0, 0, 0};  // bodies per axis; "auto" resolved here
+  std::string init_file;                      // configuration = "file": an H5MD file
+  long long init_frame = -1;                  // its frame; < 0 counts from the end
   int axis = 0;                               // 0 = x, 1 = y, 2 = z
   unsigned long long seed = 1;
   double temperature = 1.0;  // kT
@@ -49,6 +55,7 @@ struct Scene {
   std::string output_dir = "runs/default";
   long long log_interval = 0;       // steps between plain progress lines; 0 = auto
   long long snapshot_interval = 0;  // steps between H5MD frames; 0 = the final state only
+  long long checkpoint_interval = 0;  // steps between checkpoints; 0 = at the end (and on a signal)
   // [observables]
   bool frank = false;              // accumulate the Fourier order tensor (Frank constants)
   int fourier_kmax = 10;           // modes -kmax < k_a < kmax, k != 0

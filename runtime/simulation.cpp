@@ -12,6 +12,8 @@
 #include "kernels/integrator.hpp"
 #include "kernels/order_tensor.hpp"
 #include "kernels/thermostat.hpp"
+#include "runtime/checkpoint.hpp"
+#include "runtime/snapshot.hpp"
 
 namespace hardrod {
 
@@ -55,15 +57,42 @@ std::size_t partner_slot(const std::vector<int> &partners, int rank) {
 
 }  // namespace
 
-Simulation::Simulation(Scene scene, ParallelOptions parallel) : scene_(std::move(scene)) {
+// The scene's initial bodies, the same on every rank: on the lattice, or positions and axes
+// from an H5MD frame (n and box must match the scene); fresh velocities either way.
+Particles initial_bodies(const Scene &scene) {
   Particles all;
-  place_on_lattice(all, scene_.box, scene_.lattice, scene_.axis);
-  assign_velocities(all, scene_.shape, scene_.seed, scene_.temperature);
-  configure(std::move(all), parallel);
+  if (scene.configuration == Configuration::kFile) {
+    const std::string key = fmt::format("init.file = \"{}\"", scene.init_file);
+    SnapshotFrame f;
+    try {
+      f = read_h5md_frame(scene.init_file, scene.init_frame);
+    } catch (const std::runtime_error &e) {
+      throw SceneError({fmt::format("{}: {}", key, e.what())});
+    }
+    if (static_cast<long long>(f.bodies.size()) != scene.n)
+      throw SceneError({fmt::format("{}: frame {} holds {} bodies, system.n = {}", key, f.frame,
+                                    f.bodies.size(), scene.n)});
+    const Vec3 &a = f.box.length, &b = scene.box.length;
+    for (double r : {a.x / b.x, a.y / b.y, a.z / b.z})
+      if (std::fabs(r - 1.0) > 1e-12)
+        throw SceneError({fmt::format(
+            "{}: box {} x {} x {}, the scene's is {} x {} x {} (system.box or the density)", key,
+            a.x, a.y, a.z, b.x, b.y, b.z)});
+    all = std::move(f.bodies);
+  } else {
+    place_on_lattice(all, scene.box, scene.lattice, scene.axis);
+  }
+  assign_velocities(all, scene.shape, scene.seed, scene.temperature);
+  return all;
 }
 
-Simulation::Simulation(Scene scene, Particles bodies, ParallelOptions parallel)
-    : scene_(std::move(scene)) {
+Simulation::Simulation(Scene scene, ParallelOptions parallel) : scene_(std::move(scene)) {
+  configure(initial_bodies(scene_), parallel);
+}
+
+Simulation::Simulation(Scene scene, Particles bodies, ParallelOptions parallel,
+                       long long first_step)
+    : scene_(std::move(scene)), step_(first_step) {
   if (static_cast<long long>(bodies.size()) != scene_.n)
     throw std::invalid_argument(
         fmt::format("Simulation: {} bodies given for a scene of n = {}", bodies.size(), scene_.n));
@@ -159,12 +188,18 @@ void Simulation::step() {
       resolved = resolve_clusters(particles_, shape, contacts_, clusters, {}, solver_);
     } else {
       const std::vector<char> complete = complete_clusters(clusters);
-      resolved = resolve_clusters(particles_, shape, contacts_, clusters, complete, solver_);
+      resolved =
+          resolve_clusters(particles_, shape, contacts_, clusters, complete, solver_, owned_);
       share_results(clusters, complete);
       // Each contact is counted once in the whole system: by the owner of its lower id.
       for (std::size_t k = 0; k < contacts_.size(); ++k) counted[k] = contacts_[k].i < owned_;
     }
-    interval_.multi_contact_bodies += clusters.multi_contact_bodies;
+    if (comm_.size() == 1) {
+      interval_.multi_contact_bodies += clusters.multi_contact_bodies;
+    } else {  // owned bodies only: their contacts are all seen here, each counted once
+      for (std::size_t b = 0; b < clusters.bodies.size(); ++b)
+        interval_.multi_contact_bodies += clusters.bodies[b] < owned_ && clusters.degree[b] > 1;
+    }
   }
   {  // 4. second half
     ScopedRegion r(timers_, Region::kIntegrate);
@@ -183,7 +218,7 @@ void Simulation::step() {
       std::max(interval_.solver_iterations_max, resolved.iterations_max);
   interval_.solver_unconverged += resolved.unconverged;
   interval_.max_depth = std::max(interval_.max_depth, detected.max_depth);
-  interval_.solver_energy_change += resolved.energy_change;
+  interval_.solver_energy_change.add(resolved.energy_change);
 
   if (step_ % kConstraintInterval == 0) {
     ScopedRegion r(timers_, Region::kIntegrate);
@@ -199,8 +234,26 @@ void Simulation::step() {
 // rank saw in the previous step (so that every rank stops together).
 void Simulation::agree_and_rebuild(double largest_bound) {
   std::vector<double> flags{largest_bound, pending_depth_, pending_unresolved_,
+                            static_cast<double>(pending_step_), stop_requested_ ? 1.0 : 0.0};
+  if (comm_.size() > 1) flags = comm_.max("agree", flags);
+  stop_agreed_ = flags[4] > 0.0;
+  report_problems(flags);
+  if (!neighbor_list_expired(list_, flags[0], particles_.size())) return;
+  ScopedRegion r(timers_, Region::kNeighborBuild);
+  if (comm_.size() > 1) redistribute();
+  build_neighbor_list(list_, particles_, particles_.size(), owned_, scene_.box, scene_.shape);
+  index_bodies();
+}
+
+void Simulation::report_pending_problems() {
+  std::vector<double> flags{0.0, pending_depth_, pending_unresolved_,
                             static_cast<double>(pending_step_)};
   if (comm_.size() > 1) flags = comm_.max("agree", flags);
+  report_problems(flags);
+}
+
+// flags: [1] deepest overlap beyond the tolerance, [2] unresolvable cluster, [3] its step.
+void Simulation::report_problems(const std::vector<double> &flags) {
   if (flags[1] > 0.0)
     fail(fmt::format(
         "step {}: overlap depth {:.4g} D exceeds run.max_overlap = {:g} D at run.dt = {:g}; "
@@ -213,11 +266,6 @@ void Simulation::agree_and_rebuild(double largest_bound) {
         "covers, so no rank could resolve it; run with fewer ranks or a smaller run.dt "
         "(now {:g})",
         static_cast<long long>(flags[3]), static_cast<long long>(flags[2]), scene_.dt));
-  if (!neighbor_list_expired(list_, flags[0], particles_.size())) return;
-  ScopedRegion r(timers_, Region::kNeighborBuild);
-  if (comm_.size() > 1) redistribute();
-  build_neighbor_list(list_, particles_, particles_.size(), owned_, scene_.box, scene_.shape);
-  index_bodies();
 }
 
 // Migration of bodies that left the subdomain, then fresh shadow copies for every partner
@@ -407,9 +455,32 @@ void Simulation::apply_thermostat() {
         fmt::format("step {}: kinetic energy is {} (NaN or infinite velocities) at run.dt = {:g}; "
                     "try a smaller run.dt",
                     step_, ke, scene_.dt));
-  thermostat_corrections_.push_back(ke / kinetic_target_ - 1.0);
+  thermostat_.correction_sum += ke / kinetic_target_ - 1.0;
+  ++thermostat_.applications;
   // Shadows are scaled too, by the same factor: they stay bit-identical to their owners.
   scale_velocities(particles_, particles_.size(), std::sqrt(kinetic_target_ / ke));
+}
+
+IntervalTotals Simulation::pending_interval() {
+  IntervalTotals t = interval_;
+  if (comm_.size() == 1) return t;
+  const auto sums = comm_.sum("checkpoint", {t.virial, t.solver_energy_change});
+  t.virial = sums[0];
+  t.solver_energy_change = sums[1];
+  for (long long *v : {&t.steps, &t.collisions, &t.narrow_phase_tests, &t.contacts,
+                       &t.multi_contact_bodies, &t.clusters, &t.solver_unconverged})
+    *v = comm_.sum("checkpoint", *v);
+  t.steps /= comm_.size();  // every rank counts every step
+  const auto mx =
+      comm_.max("checkpoint", {t.max_depth, static_cast<double>(t.solver_iterations_max)});
+  t.max_depth = mx[0];
+  t.solver_iterations_max = static_cast<long long>(mx[1]);
+  return t;
+}
+
+void Simulation::restore_interval(const IntervalTotals &totals) {
+  interval_ = comm_.is_root() ? totals : IntervalTotals{};
+  interval_.steps = totals.steps;  // every rank counts every step
 }
 
 IntervalTotals Simulation::take_interval() {
@@ -432,8 +503,8 @@ Observation Simulation::observe() {
   const IntervalTotals t = take_interval();
   const AxisMoments m = axis_moments(particles_, owned_);
   const KineticEnergy ke = hardrod::kinetic_energy(particles_, owned_, scene_.shape);
-  const auto sums = comm_.sum(
-      "observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz, ke.translational, ke.rotational, t.virial});
+  const auto sums = comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz, ke.translational,
+                                          ke.rotational, t.virial, t.solver_energy_change});
   const OrderParameter q = order_parameter(moments_from(sums, scene_.n));
   o.order_parameter = q.S;
   o.director = q.director;
@@ -445,6 +516,7 @@ Observation Simulation::observe() {
   o.temperature = 2.0 * o.kinetic_energy / dof;
   o.totals = t;
   o.totals.virial = sums[8];
+  o.totals.solver_energy_change = sums[9];
   if (comm_.size() > 1) {
     for (long long *v :
          {&o.totals.collisions, &o.totals.narrow_phase_tests, &o.totals.contacts,
@@ -524,7 +596,16 @@ OrderParameter Simulation::order() {
 }
 
 FourierOrderTensor Simulation::fourier_order(int kmax) {
-  FourierOrderTensor q = fourier_order_tensor(particles_, owned_, scene_.box, kmax);
+  // Owned bodies in id order: the sums then round the same way whatever order the pair-list
+  // builds left them in, so a resumed run accumulates the same bits as an uninterrupted one.
+  Particles sorted = particles_;
+  sorted.resize(owned_);
+  std::vector<std::uint32_t> by_id(owned_);
+  std::iota(by_id.begin(), by_id.end(), 0u);
+  std::sort(by_id.begin(), by_id.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return sorted.id[a] < sorted.id[b]; });
+  sorted.permute(by_id);
+  FourierOrderTensor q = fourier_order_tensor(sorted, owned_, scene_.box, kmax);
   if (comm_.size() == 1) return q;
   // Ranks' partial sums travel as doubles and are added at rank 0 in rank order.
   std::vector<char> mine;
@@ -578,20 +659,7 @@ Particles Simulation::gather_bodies() {
 
 std::string Simulation::state_checksum() {
   const Particles p = gather_bodies();
-  std::uint64_t hash = 1469598103934665603ULL;  // FNV-1a 64
-  auto feed = [&hash](const void *data, std::size_t bytes) {
-    const auto *c = static_cast<const unsigned char *>(data);
-    for (std::size_t k = 0; k < bytes; ++k) {
-      hash ^= c[k];
-      hash *= 1099511628211ULL;
-    }
-  };
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    feed(&p.id[i], sizeof(std::int64_t));
-    for (const auto *field :
-         {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz})
-      feed(&(*field)[i], sizeof(double));
-  }
+  const std::uint64_t hash = body_hash(p);
   // Rank 0 computed it; a sum with zeros from the other ranks gives it to everyone.
   ExactSum h;
   if (comm_.is_root()) h = ExactSum::from_raw(static_cast<Int128>(hash), false);

@@ -50,8 +50,14 @@ struct IntervalTotals {
   long long solver_iterations_max = 0;
   long long solver_unconverged = 0;
   double max_depth = 0.0;
-  double solver_energy_change = 0.0;
-  ExactSum virial;  // sum of J n . (x_i - x_j)
+  ExactSum solver_energy_change;  // kinetic energy the multi-contact solver changed
+  ExactSum virial;                // sum of J n . (x_i - x_j)
+};
+
+// The thermostat's record of the relative kinetic-energy error it removed (drift).
+struct ThermostatRecord {
+  double correction_sum = 0.0;  // sum of (KE / target - 1) over applications, in order
+  long long applications = 0;
 };
 
 // One sample of the whole system (collective: every rank gets the same numbers).
@@ -64,12 +70,19 @@ struct Observation {
   IntervalTotals totals;  // summed over ranks
 };
 
+// The scene's initial bodies, all n in id order, the same on every rank: on the aligned
+// lattice, or positions and axes from an H5MD frame (init.configuration = "file"; n and box
+// must match). Velocities fresh at the scene's temperature. Throws SceneError.
+Particles initial_bodies(const Scene &scene);
+
 class Simulation {
  public:
   // Starts from the scene's lattice with fresh velocities.
   explicit Simulation(Scene scene, ParallelOptions parallel = {});
-  // Starts from given bodies (all n of them, on every rank; each keeps its own).
-  Simulation(Scene scene, Particles bodies, ParallelOptions parallel = {});
+  // Starts from given bodies (all n of them, on every rank; each keeps its own) at step
+  // `first_step` (a restart: the step number keys the thermostat and constraint schedule).
+  Simulation(Scene scene, Particles bodies, ParallelOptions parallel = {},
+             long long first_step = 0);
 
   void step();
 
@@ -88,17 +101,33 @@ class Simulation {
 
   // This rank's totals since the previous call; resets them.
   IntervalTotals take_interval();
+  // Collective: all ranks' totals since the last sample, without resetting them (for a
+  // checkpoint). restore_interval() puts such totals back on rank 0 (zeros elsewhere): the
+  // next observe() sums to the same numbers, since every total is an integer, a maximum or
+  // an exact sum.
+  IntervalTotals pending_interval();
+  void restore_interval(const IntervalTotals &totals);
   // Collective: the order parameter, kinetic energy and the interval totals of all ranks.
   Observation observe();
   // Collective: total kinetic energy (exact sum over owned bodies of all ranks).
   double kinetic_energy();
   double target_kinetic_energy() const { return kinetic_target_; }
-  // Relative kinetic-energy error each thermostat application found (drift record).
-  const std::vector<double> &thermostat_corrections() const { return thermostat_corrections_; }
+  // Relative kinetic-energy error the thermostat found, summed over its applications.
+  const ThermostatRecord &thermostat_record() const { return thermostat_; }
+  void restore_thermostat_record(const ThermostatRecord &record) { thermostat_ = record; }
+  // A stop (e.g. on SIGTERM) asked by this rank before a step is agreed in that step's
+  // one reduction: afterwards stop_agreed() is the same on every rank.
+  void request_stop(bool stop) { stop_requested_ = stop; }
+  bool stop_agreed() const { return stop_agreed_; }
+  // Collective: throws the PhysicsError any rank saw in the last step but has not yet
+  // reported (reports are otherwise agreed in the next step's reduction).
+  void report_pending_problems();
   // Collective: the order parameter (S, director) of all bodies.
   OrderParameter order();
-  // Collective: the Fourier order tensor of all bodies, summed over ranks in rank order
-  // (complete on rank 0; other ranks get their own share).
+  // Collective: the Fourier order tensor of all bodies, each rank's bodies summed in id
+  // order, ranks added in rank order (complete on rank 0; other ranks get their own share).
+  // The same bits for any thread count and history on a given rank count; across rank
+  // counts the sums agree to round-off (~1e-16 relative), unlike the exact sums above.
   FourierOrderTensor fourier_order(int kmax);
   // Collective: axes' angles to `director`, counted in `bins` bins of cos(theta), all ranks.
   AngularCounts angular_distribution(const Vec3 &director, int bins);
@@ -124,6 +153,7 @@ class Simulation {
   void share_results(const ContactClusters &clusters, const std::vector<char> &resolved);
   void apply_thermostat();
   void index_bodies();
+  void report_problems(const std::vector<double> &flags);
   [[noreturn]] void fail(const std::string &message);
 
   Scene scene_;
@@ -138,13 +168,15 @@ class Simulation {
   SolverSettings solver_;
   RegionTimers timers_;
   IntervalTotals interval_;
-  std::vector<double> thermostat_corrections_;
+  ThermostatRecord thermostat_;
   double kinetic_target_ = 0.0;
   long long step_ = 0;
   // A problem seen by this rank, reported collectively at the next agreement.
   double pending_depth_ = 0.0;
   double pending_unresolved_ = 0.0;
   long long pending_step_ = 0;
+  bool stop_requested_ = false;
+  bool stop_agreed_ = false;
 };
 
 }  // namespace hardrod

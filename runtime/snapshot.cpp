@@ -4,6 +4,7 @@
 #include <hdf5.h>
 
 #include <array>
+#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -78,7 +79,137 @@ void append_row(hid_t file, const std::string &path, hid_t type, const void *dat
   H5Dclose(set);
 }
 
+// Shape of a dataset, or an error naming it.
+std::vector<hsize_t> dataset_shape(hid_t file, const std::string &name, const std::string &path) {
+  // Each group on the way must exist, or H5Lexists fails rather than saying no.
+  for (std::size_t at = name.find('/', 1); at != std::string::npos; at = name.find('/', at + 1))
+    if (H5Lexists(file, name.substr(0, at).c_str(), H5P_DEFAULT) <= 0)
+      throw std::runtime_error(fmt::format("{}: {} is missing", path, name.substr(0, at)));
+  if (H5Lexists(file, name.c_str(), H5P_DEFAULT) <= 0)
+    throw std::runtime_error(fmt::format("{}: dataset {} is missing", path, name));
+  const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+  const hid_t space = H5Dget_space(set);
+  const int rank = H5Sget_simple_extent_ndims(space);
+  std::vector<hsize_t> dims(static_cast<std::size_t>(std::max(rank, 0)));
+  if (rank > 0) H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+  H5Sclose(space);
+  H5Dclose(set);
+  return dims;
+}
+
+// Reads `count` rows from row `start` of dataset `name` (first dimension) as `type`.
+template <typename T>
+std::vector<T> read_rows(hid_t file, const std::string &name, hid_t type,
+                         const std::vector<hsize_t> &dims, hsize_t start, const std::string &path) {
+  const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+  const hid_t space = H5Dget_space(set);
+  std::vector<hsize_t> offset(dims.size(), 0), count = dims;
+  offset[0] = start;
+  count[0] = 1;
+  H5Sselect_hyperslab(space, H5S_SELECT_SET, offset.data(), nullptr, count.data(), nullptr);
+  hsize_t total = 1;
+  for (std::size_t k = 1; k < dims.size(); ++k) total *= dims[k];
+  const hid_t memory = H5Screate_simple(1, &total, nullptr);
+  std::vector<T> out(total);
+  const herr_t status = H5Dread(set, type, memory, space, H5P_DEFAULT, out.data());
+  H5Sclose(memory);
+  H5Sclose(space);
+  H5Dclose(set);
+  if (status < 0) throw std::runtime_error(fmt::format("{}: cannot read {}", path, name));
+  return out;
+}
+
+// All of a 1D dataset of `count` values.
+template <typename T>
+std::vector<T> read_all(hid_t file, const std::string &name, hid_t type, hsize_t count,
+                        const std::string &path) {
+  const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+  std::vector<T> out(count);
+  const herr_t status = H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
+  H5Dclose(set);
+  if (status < 0) throw std::runtime_error(fmt::format("{}: cannot read {}", path, name));
+  return out;
+}
+
 }  // namespace
+
+SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  if (H5Fis_hdf5(path.c_str()) <= 0)
+    throw std::runtime_error(fmt::format("{}: not a readable HDF5 file", path));
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file < 0) throw std::runtime_error(fmt::format("{}: cannot open", path));
+  struct Closer {
+    hid_t f;
+    ~Closer() { H5Fclose(f); }
+  } closer{file};
+  const std::string position = "/particles/all/position/value", axis = "/particles/all/axis/value";
+  const auto dims = dataset_shape(file, position, path);
+  if (dims.size() != 3 || dims[2] != 3 || dims[1] == 0)
+    throw std::runtime_error(
+        fmt::format("{}: {} must have shape [frames][n][3]", path, position));
+  const auto frames = static_cast<long long>(dims[0]);
+  const long long index = frame < 0 ? frames + frame : frame;
+  if (index < 0 || index >= frames)
+    throw std::runtime_error(fmt::format("{}: frame {} requested, the file has {} frame(s)", path,
+                                         frame, frames));
+  const auto axis_dims = dataset_shape(file, axis, path);
+  if (axis_dims != dims)
+    throw std::runtime_error(
+        fmt::format("{}: {} and {} differ in shape", path, position, axis));
+  const auto edges_dims = dataset_shape(file, "/particles/all/box/edges", path);
+  if (edges_dims != std::vector<hsize_t>{3})
+    throw std::runtime_error(fmt::format("{}: /particles/all/box/edges must hold 3 numbers", path));
+  SnapshotFrame out;
+  out.frame = index;
+  out.frames = frames;
+  const auto edges = read_all<double>(file, "/particles/all/box/edges", H5T_NATIVE_DOUBLE, 3, path);
+  for (double e : edges)
+    if (!(std::isfinite(e) && e > 0))
+      throw std::runtime_error(fmt::format("{}: box edge {}: must be > 0 and finite", path, e));
+  out.box = Box{{edges[0], edges[1], edges[2]}};
+  if (H5Lexists(file, "/particles/all/position/step", H5P_DEFAULT) > 0) {
+    const auto steps = dataset_shape(file, "/particles/all/position/step", path);
+    if (steps.size() == 1 && steps[0] == dims[0])
+      out.step = read_all<long long>(file, "/particles/all/position/step", H5T_NATIVE_LLONG,
+                                     dims[0], path)[static_cast<std::size_t>(index)];
+  }
+  const auto n = static_cast<std::size_t>(dims[1]);
+  const auto x = read_rows<double>(file, position, H5T_NATIVE_DOUBLE, dims,
+                                   static_cast<hsize_t>(index), path);
+  const auto e = read_rows<double>(file, axis, H5T_NATIVE_DOUBLE, dims,
+                                   static_cast<hsize_t>(index), path);
+  Particles &p = out.bodies;
+  p.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    p.id[i] = static_cast<std::int64_t>(i);
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (!std::isfinite(x[3 * i + a]) || !std::isfinite(e[3 * i + a]))
+        throw std::runtime_error(fmt::format("{}: frame {}, body {}: position or axis not finite",
+                                             path, index, i));
+    }
+    p.set_position(i, {x[3 * i], x[3 * i + 1], x[3 * i + 2]});
+    p.set_axis(i, {e[3 * i], e[3 * i + 1], e[3 * i + 2]});
+    const double length = norm(p.axis(i));
+    if (std::fabs(length - 1.0) > 1e-6)
+      throw std::runtime_error(fmt::format(
+          "{}: frame {}, body {}: axis has length {}, must be a unit vector", path, index, i, length));
+  }
+  if (H5Lexists(file, "/particles/all/id", H5P_DEFAULT) > 0 &&
+      H5Lexists(file, "/particles/all/id/value", H5P_DEFAULT) > 0) {
+    const auto id_dims = dataset_shape(file, "/particles/all/id/value", path);
+    if (id_dims == std::vector<hsize_t>{dims[1]}) {
+      const auto ids =
+          read_all<long long>(file, "/particles/all/id/value", H5T_NATIVE_LLONG, dims[1], path);
+      for (std::size_t i = 0; i < n; ++i)
+        if (ids[i] != static_cast<long long>(i))
+          throw std::runtime_error(fmt::format(
+              "{}: /particles/all/id/value[{}] = {}: bodies must be in id order 0..n-1", path, i,
+              ids[i]));
+    }
+  }
+  return out;
+}
 
 TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
     : n_(scene.n), path_(path) {
@@ -144,6 +275,52 @@ TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
   write_attribute(parameters, "n", H5T_NATIVE_LLONG, &scene.n, 1);
   write_string_attribute(parameters, "shape", scene.shape_name);
   H5Gclose(parameters);
+  H5Fflush(file, H5F_SCOPE_GLOBAL);
+}
+
+TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene,
+                                   long long keep_frames)
+    : n_(scene.n), frames_(keep_frames), path_(path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (file < 0) throw std::runtime_error(fmt::format("{}: cannot reopen the H5MD file", path));
+  file_ = file;
+  try {
+    cut_back(scene.n, keep_frames);
+  } catch (...) {
+    H5Fclose(file);  // the destructor does not run for a constructor that throws
+    throw;
+  }
+}
+
+void TrajectoryWriter::cut_back(long long n, long long keep_frames) {
+  const hid_t file = static_cast<hid_t>(file_);
+  const std::string &path = path_;
+  for (const char *element : kVectorElements) {
+    for (const char *series : {"step", "time", "value"}) {
+      const std::string name = fmt::format("/particles/all/{}/{}", element, series);
+      if (H5Lexists(file, fmt::format("/particles/all/{}", element).c_str(), H5P_DEFAULT) <= 0 ||
+          H5Lexists(file, name.c_str(), H5P_DEFAULT) <= 0)
+        throw std::runtime_error(fmt::format("{}: dataset {} is missing", path, name));
+      const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+      const hid_t space = H5Dget_space(set);
+      const int rank = H5Sget_simple_extent_ndims(space);
+      std::vector<hsize_t> dims(static_cast<std::size_t>(std::max(rank, 1)), 0);
+      H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+      H5Sclose(space);
+      std::string problem;
+      if (static_cast<long long>(dims[0]) < keep_frames)
+        problem = fmt::format("{} has {} frames, the checkpoint recorded {}", name, dims[0],
+                              keep_frames);
+      else if (rank == 3 && static_cast<long long>(dims[1]) != n)
+        problem = fmt::format("{} holds {} bodies, the scene {}", name, dims[1], n);
+      dims[0] = static_cast<hsize_t>(keep_frames);
+      if (problem.empty() && H5Dset_extent(set, dims.data()) < 0)
+        problem = fmt::format("cannot cut {} back to {} frames", name, keep_frames);
+      H5Dclose(set);
+      if (!problem.empty()) throw std::runtime_error(fmt::format("{}: {}", path, problem));
+    }
+  }
   H5Fflush(file, H5F_SCOPE_GLOBAL);
 }
 

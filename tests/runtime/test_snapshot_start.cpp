@@ -1,0 +1,170 @@
+// Starting a run from a snapshot (init.configuration = "file"): the frame's positions and
+// axes, bit for bit, and a clear SceneError for every file that does not fit the scene.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "runtime/scene.hpp"
+#include "runtime/simulation.hpp"
+#include "runtime/snapshot.hpp"
+#include "tests/test_scenes.hpp"
+
+namespace hardrod {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct SnapshotStart : ::testing::Test {
+  fs::path dir;
+  void SetUp() override {
+    dir = fs::temp_directory_path() /
+          ("hardrod-snapshot-start-" +
+           std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+
+  // Two frames of a short run of the small nematic: the lattice and 200 steps later.
+  std::string write_run(Particles *last) {
+    Scene scene = testing::small_nematic(1e-3);
+    Simulation sim(scene);
+    const std::string path = (dir / "run.h5").string();
+    TrajectoryWriter w(path, scene);
+    w.append(sim.gather_bodies(), 0, 0.0);
+    for (int k = 0; k < 200; ++k) sim.step();
+    *last = sim.gather_bodies();
+    w.append(*last, sim.current_step(), sim.time());
+    return path;
+  }
+
+  static std::string error_of(const Scene &scene) {
+    try {
+      initial_bodies(scene);
+    } catch (const SceneError &e) {
+      return e.what();
+    }
+    return "";
+  }
+};
+
+TEST_F(SnapshotStart, TakesPositionsAndAxesOfTheFrameBitForBit) {
+  Particles last;
+  Scene scene = testing::small_nematic(1e-3);
+  scene.configuration = Configuration::kFile;
+  scene.init_file = write_run(&last);
+  scene.init_frame = -1;
+  const Particles p = initial_bodies(scene);
+  ASSERT_EQ(p.size(), last.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_EQ(p.id[i], static_cast<std::int64_t>(i));
+    for (auto [a, b] : {std::pair{&p.x, &last.x}, {&p.y, &last.y}, {&p.z, &last.z},
+                        {&p.ex, &last.ex}, {&p.ey, &last.ey}, {&p.ez, &last.ez}})
+      ASSERT_EQ(std::memcmp(&(*a)[i], &(*b)[i], sizeof(double)), 0) << i;
+  }
+  // Velocities are fresh at the scene's temperature, not the file's.
+  double ke = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) ke += norm2(p.velocity(i));
+  EXPECT_GT(ke, 0.0);
+  // Frame 0 is the lattice; a run can start from it and goes on.
+  scene.init_frame = 0;
+  Simulation sim(scene);
+  for (int k = 0; k < 20; ++k) sim.step();
+  EXPECT_EQ(sim.current_step(), 20);
+  // The scene names the file and the frame in canonical form.
+  const std::string toml = scene_to_toml(scene);
+  EXPECT_NE(toml.find("configuration = \"file\""), std::string::npos) << toml;
+  EXPECT_EQ(parse_scene(toml).init_file, scene.init_file);
+}
+
+TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
+  Particles last;
+  Scene scene = testing::small_nematic(1e-3);
+  scene.configuration = Configuration::kFile;
+  scene.init_file = write_run(&last);
+
+  scene.init_frame = 2;
+  EXPECT_NE(error_of(scene).find("frame 2 requested, the file has 2 frame(s)"), std::string::npos)
+      << error_of(scene);
+  scene.init_frame = -3;
+  EXPECT_NE(error_of(scene).find("the file has 2"), std::string::npos);
+  scene.init_frame = -1;
+
+  Scene other_n = scene;
+  other_n.n = 287;
+  EXPECT_NE(error_of(other_n).find("holds 288 bodies, system.n = 287"), std::string::npos)
+      << error_of(other_n);
+
+  Scene other_box = scene;
+  other_box.box.length.y *= 1.01;
+  EXPECT_NE(error_of(other_box).find("the scene's is"), std::string::npos) << error_of(other_box);
+
+  Scene missing = scene;
+  missing.init_file = (dir / "absent.h5").string();
+  EXPECT_NE(error_of(missing).find("init.file = \"" + missing.init_file + "\""), std::string::npos)
+      << error_of(missing);
+  EXPECT_NE(error_of(missing).find("not a readable HDF5 file"), std::string::npos);
+
+  Scene garbage = scene;
+  garbage.init_file = (dir / "garbage.h5").string();
+  std::ofstream(garbage.init_file) << "not hdf5 at all";
+  EXPECT_NE(error_of(garbage).find("not a readable HDF5 file"), std::string::npos);
+
+  // NaN and a non-unit axis inside an otherwise valid file.
+  Particles bad = last;
+  bad.x[10] = std::nan("");
+  {
+    TrajectoryWriter w((dir / "nan.h5").string(), scene);
+    w.append(bad, 0, 0.0);
+  }
+  Scene nan_file = scene;
+  nan_file.init_file = (dir / "nan.h5").string();
+  EXPECT_NE(error_of(nan_file).find("body 10: position or axis not finite"), std::string::npos)
+      << error_of(nan_file);
+  bad = last;
+  bad.ey[3] += 0.1;
+  {
+    TrajectoryWriter w((dir / "axis.h5").string(), scene);
+    w.append(bad, 0, 0.0);
+  }
+  Scene axis_file = scene;
+  axis_file.init_file = (dir / "axis.h5").string();
+  EXPECT_NE(error_of(axis_file).find("body 3: axis has length"), std::string::npos)
+      << error_of(axis_file);
+  // A trajectory with no frame at all.
+  {
+    TrajectoryWriter w((dir / "empty.h5").string(), scene);
+  }
+  Scene empty = scene;
+  empty.init_file = (dir / "empty.h5").string();
+  EXPECT_NE(error_of(empty).find("the file has 0 frame(s)"), std::string::npos) << error_of(empty);
+}
+
+TEST(SceneInit, ConfigurationKeysAreCheckedAndNamed) {
+  const std::string base =
+      "[system]\nn = 288\nreduced_density = 0.5\naspect_ratio = 5.0\n[run]\ndt = 1e-4\n"
+      "steps = 10\n";
+  try {
+    parse_scene(base + "[init]\nconfiguration = \"random\"\n");
+    FAIL();
+  } catch (const SceneError &e) {
+    EXPECT_NE(std::string(e.what()).find("init.configuration = \"random\""), std::string::npos)
+        << e.what();
+  }
+  try {
+    parse_scene(base + "[init]\nconfiguration = \"file\"\n");
+    FAIL();
+  } catch (const SceneError &e) {
+    EXPECT_NE(std::string(e.what()).find("init.file"), std::string::npos) << e.what();
+  }
+  const Scene s = parse_scene(base + "[init]\nconfiguration = \"file\"\nfile = \"x.h5\"\n");
+  EXPECT_EQ(s.configuration, Configuration::kFile);
+  EXPECT_EQ(s.init_file, "x.h5");
+  EXPECT_EQ(s.init_frame, -1);
+}
+
+}  // namespace
+}  // namespace hardrod
