@@ -67,7 +67,8 @@ constexpr KeySpec kKeys[] = {
 constexpr std::string_view kSections[] = {"system", "init", "run", "output", "observables"};
 constexpr std::string_view kDensityKeys[] = {"reduced_density", "packing_fraction", "box"};
 constexpr std::string_view kAxisNames[] = {"x", "y", "z"};
-constexpr std::string_view kConfigurations[] = {"lattice", "file"};  // order of Configuration
+constexpr std::string_view kConfigurations[] = {"lattice", "file",
+                                                "isotropic"};  // order of Configuration
 
 // ---- text -------------------------------------------------------------------------------
 
@@ -602,7 +603,7 @@ void read_init(Reader &in, Scene &scene, Validity &ok) {
     const auto known = std::find(std::begin(kConfigurations), std::end(kConfigurations),
                                  configuration);
     if (in.check("init", "configuration", known != std::end(kConfigurations),
-                 "must be \"lattice\" or \"file\""))
+                 "must be \"lattice\", \"isotropic\" or \"file\""))
       scene.configuration = static_cast<Configuration>(known - std::begin(kConfigurations));
   }
   if (scene.configuration == Configuration::kFile) {

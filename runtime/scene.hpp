@@ -24,8 +24,9 @@ class SceneError : public std::runtime_error {
   std::vector<std::string> problems_;
 };
 
-// Where the bodies start: the aligned lattice, or positions and axes read from an H5MD file.
-enum class Configuration { kLattice, kFile };
+// Where the bodies start: the aligned lattice, a random isotropic state compressed to the
+// density (kernels/isotropic_start.hpp), or positions and axes read from an H5MD file.
+enum class Configuration { kLattice, kFile, kIsotropic };
 
 struct Scene {
   // [system]

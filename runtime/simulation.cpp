@@ -10,6 +10,7 @@
 #include "kernels/contact_detection.hpp"
 #include "kernels/initial_state.hpp"
 #include "kernels/integrator.hpp"
+#include "kernels/isotropic_start.hpp"
 #include "kernels/order_tensor.hpp"
 #include "kernels/thermostat.hpp"
 #include "runtime/checkpoint.hpp"
@@ -57,8 +58,9 @@ std::size_t partner_slot(const std::vector<int> &partners, int rank) {
 
 }  // namespace
 
-// The scene's initial bodies, the same on every rank: on the lattice, or positions and axes
-// from an H5MD frame (n and box must match the scene); fresh velocities either way.
+// The scene's initial bodies, the same on every rank: on the lattice, compressed from a
+// random isotropic state (every rank computes the same, deterministic in the seed), or
+// positions and axes from an H5MD frame (n and box must match the scene); fresh velocities.
 Particles initial_bodies(const Scene &scene) {
   Particles all;
   if (scene.configuration == Configuration::kFile) {
@@ -79,6 +81,12 @@ Particles initial_bodies(const Scene &scene) {
             "{}: box {} x {} x {}, the scene's is {} x {} x {} (system.box or the density)", key,
             a.x, a.y, a.z, b.x, b.y, b.z)});
     all = std::move(f.bodies);
+  } else if (scene.configuration == Configuration::kIsotropic) {
+    try {
+      all = make_isotropic(scene.n, scene.shape, scene.box, scene.seed);
+    } catch (const std::exception &e) {
+      throw SceneError({fmt::format("init.configuration = \"isotropic\": {}", e.what())});
+    }
   } else {
     place_on_lattice(all, scene.box, scene.lattice, scene.axis);
   }

@@ -71,8 +71,9 @@ struct Observation {
 };
 
 // The scene's initial bodies, all n in id order, the same on every rank: on the aligned
-// lattice, or positions and axes from an H5MD frame (init.configuration = "file"; n and box
-// must match). Velocities fresh at the scene's temperature. Throws SceneError.
+// lattice, a random isotropic state compressed to the density (init.configuration =
+// "isotropic"), or positions and axes from an H5MD frame ("file"; n and box must match).
+// Velocities fresh at the scene's temperature. Throws SceneError.
 Particles initial_bodies(const Scene &scene);
 
 class Simulation {

@@ -166,5 +166,28 @@ TEST(SceneInit, ConfigurationKeysAreCheckedAndNamed) {
   EXPECT_EQ(s.init_frame, -1);
 }
 
+TEST(SceneInit, IsotropicStartRunsAndRoundTrips) {
+  const std::string text =
+      "[system]\nn = 300\nreduced_density = 0.3\naspect_ratio = 5.0\n[init]\n"
+      "configuration = \"isotropic\"\nseed = 4\n[run]\ndt = 1e-4\nsteps = 10\n";
+  const Scene scene = parse_scene(text);
+  EXPECT_EQ(scene.configuration, Configuration::kIsotropic);
+  EXPECT_EQ(parse_scene(scene_to_toml(scene)).configuration, Configuration::kIsotropic);
+  Simulation sim(scene);
+  EXPECT_LT(sim.order().S, 0.15);  // isotropic: ~1/sqrt(n)
+  for (int k = 0; k < 100; ++k) sim.step();  // no overlap beyond run.max_overlap
+  EXPECT_EQ(sim.current_step(), 100);
+  // A density no isotropic packing reaches: a SceneError naming the key.
+  Scene dense = scene;
+  dense.box.length = dense.box.length * 0.5;
+  try {
+    initial_bodies(dense);
+    FAIL();
+  } catch (const SceneError &e) {
+    EXPECT_NE(std::string(e.what()).find("init.configuration = \"isotropic\""), std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace hardrod
