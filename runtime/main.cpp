@@ -1,5 +1,6 @@
 // The hardrod command line: `hardrod run SCENE.toml [--set key=value ...] [--out DIR]`,
-// `hardrod resume DIR [--set run.steps=N]`, `hardrod analyze DIR...`, `hardrod info`.
+// `hardrod resume DIR [--set run.steps=N]`, `hardrod analyze DIR...`,
+// `hardrod export TRAJECTORY.h5 [--frame K]`, `hardrod info`.
 // Exit status: 0 success, 1 usage, 2 bad scene, output directory or checkpoint, 3 the
 // physics broke (overlap beyond tolerance, NaN): the message says which step and dt,
 // 4 stopped by SIGTERM/SIGUSR1/SIGINT after writing a checkpoint (resume continues it).
@@ -8,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +20,7 @@
 #include "runtime/run.hpp"
 #include "runtime/scene.hpp"
 #include "runtime/simulation.hpp"
+#include "runtime/snapshot.hpp"
 
 int main(int argc, char **argv) {
   CLI::App app{"hardrod: hard-spherocylinder liquid crystals by hard-contact rigid-body dynamics"};
@@ -71,6 +74,14 @@ int main(int argc, char **argv) {
   resume->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
       ->check(grid_check);
 
+  std::string export_file, export_out;
+  long long export_frame = -1;
+  auto *export_cmd = app.add_subcommand(
+      "export", "write one frame of an H5MD trajectory as extended XYZ (OVITO, ASE) for a quick look");
+  export_cmd->add_option("file", export_file, "H5MD file, e.g. DIR/trajectory.h5")->required();
+  export_cmd->add_option("--frame", export_frame, "frame (< 0 counts from the end; default -1)");
+  export_cmd->add_option("--out", export_out, "output file (default: standard output)");
+
   app.add_subcommand("info", "print the build configuration and the machine");
 
   hardrod::AnalyzeOptions analyze_options;
@@ -92,6 +103,23 @@ int main(int argc, char **argv) {
 
   if (app.got_subcommand("info")) {
     fmt::print("{}", hardrod::build_info());
+    return 0;
+  }
+  if (app.got_subcommand("export")) {
+    try {
+      const std::string xyz =
+          hardrod::extended_xyz(hardrod::read_h5md_frame(export_file, export_frame));
+      if (export_out.empty()) {
+        fmt::print("{}", xyz);
+      } else {
+        std::ofstream out(export_out);
+        out << xyz;
+        if (!out) throw std::runtime_error(export_out + ": cannot write");
+      }
+    } catch (const std::exception &e) {
+      fmt::print(stderr, "hardrod export: {}\n", e.what());
+      return 2;
+    }
     return 0;
   }
   if (app.got_subcommand("analyze")) {
