@@ -74,7 +74,8 @@ struct RunState {
   long long running_count = 0;
   double kinetic_start = 0.0;
   AngularCounts angular;
-  double wall_seconds = 0.0;  // of earlier segments
+  double wall_seconds = 0.0;   // of earlier segments
+  double setup_seconds = 0.0;  // of earlier segments (the initial configuration's included)
   long long segments = 0;     // run + resumes before this one
   long long list_builds = 0;  // neighbour-list builds of earlier segments
   // Output already written when the checkpoint was taken: a resume cuts the files back.
@@ -86,7 +87,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RunState, s_series, p_series, z_series, colli
                                    production_collisions, narrow_tests, contacts, multi_bodies,
                                    clusters, solver_iterations_max, solver_unconverged, max_depth,
                                    solver_energy_change, running_sum, running_count,
-                                   kinetic_start, angular, wall_seconds, segments, list_builds,
+                                   kinetic_start, angular, wall_seconds, setup_seconds, segments,
+                                   list_builds,
                                    timeseries_bytes, trajectory_frames)
 
 // A checkpoint's run_state: the run's accumulators, the simulation's totals of the sampling
@@ -283,6 +285,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
     last_frame_step = sim.current_step();
   };
   // Collective: the bodies in id order and every accumulator, atomically to dir/checkpoint.h5.
+  double setup_seconds = 0.0;  // measured when the steps start
   auto write_checkpoint_now = [&](double wall_now) {
     ScopedRegion r(sim.timers(), Region::kOutput);
     sim.report_pending_problems();  // never checkpoint a state that already broke
@@ -293,6 +296,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
     c.scene_toml = scene_to_toml(scene);
     RunState saved = st;
     saved.wall_seconds = st.wall_seconds + comm.max("checkpoint", {wall_now})[0];
+    saved.setup_seconds = st.setup_seconds + setup_seconds;
     saved.segments = st.segments + 1;
     saved.list_builds = st.list_builds + sim.neighbor_list().builds;
     // Rank 0's byte and frame counts for everyone (the state must be the same on all ranks).
@@ -342,7 +346,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   HardwareCounters counters;
   counters.start();
   const auto start = Clock::now();
-  const double setup_seconds =
+  setup_seconds =
       comm.max("setup", {std::chrono::duration<double>(start - setup_start).count()})[0];
   auto seconds_since_start = [&start]() {
     return std::chrono::duration<double>(Clock::now() - start).count();
@@ -536,6 +540,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
       {"energy_drift", drift},
       {"wall_seconds", wall},
       {"setup_seconds", setup_seconds},
+      {"setup_seconds_total", st.setup_seconds + setup_seconds},
       {"wall_seconds_total", st.wall_seconds + wall},
       {"segments", st.segments + 1},
       {"first_step", first_step},
