@@ -420,10 +420,10 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   };
 
   try {
-    auto on_schedule = [&](long long step) {  // a step that closes a sampling interval
-      return step == scene.equilibration_steps ||
-             (step > scene.equilibration_steps &&
-              (step - scene.equilibration_steps) % scene.sample_interval == 0);
+    // A step that closes a sampling interval: every sample_interval steps counted from the
+    // start of production, in equilibration too (its samples go to the time series only).
+    auto on_schedule = [&](long long step) {
+      return (step - scene.equilibration_steps) % scene.sample_interval == 0;
     };
     while (sim.current_step() < total_steps) {
       sim.request_stop(stop_signal() != 0);
@@ -443,7 +443,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
         st.running_sum = 0.0;
         st.running_count = 0;
       } else if (on_schedule(step)) {
-        take_sample(true);
+        take_sample(step > scene.equilibration_steps);
       }
       // Checkpoints: on schedule, at the end, and when a signal asked for a stop. Taken
       // before a last partial sample, so that a resume continues the same intervals.

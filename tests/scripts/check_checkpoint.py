@@ -158,6 +158,17 @@ EXTRA = ["--set", "observables.frank=true", "--set", "observables.fourier_kmax=3
 def mode_resume(r: Runner):
     straight = r.work / "straight"
     r.run(["run", str(r.scene), "--out", str(straight), "--set", "run.steps=2000"] + EXTRA)
+    # With equilibration, stopped (by the step target) inside it and resumed across its end:
+    # the time series keeps its equilibration rows and the production intervals line up.
+    eq = ["--set", "run.equilibration_steps=700", "--set", "run.sample_interval=300"]
+    eq_straight = r.work / "eq-straight"
+    r.run(["run", str(r.scene), "--out", str(eq_straight), "--set", "run.steps=1300"] + eq)
+    rows = (eq_straight / "timeseries.csv").read_text().splitlines()
+    assert sum(",equilibration," in x for x in rows) == 3, rows  # steps 100, 400, 700
+    d = r.work / "eq-resumed"
+    r.run(["run", str(r.scene), "--out", str(d), "--set", "run.steps=0"] + eq)
+    r.run(["resume", str(d), "--set", "run.steps=1300"])
+    compare_runs(eq_straight, d)
     cases = [("1x1-then-1x1", 1, 1, 1, 1), ("1x1-then-1x2", 1, 1, 1, 2),
              ("2x1-then-3x1", 2, 1, 3, 1), ("3x1-then-1x1", 3, 1, 1, 1)]
     if not r.mpirun:
