@@ -144,7 +144,9 @@ ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<C
                 [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
       members.erase(std::unique(members.begin(), members.end()), members.end());
       double energy_before = 0.0;
-      for (std::uint32_t b : members) energy_before += kinetic_energy_of(p, b, shape.mass, inertia);
+      if (counted)
+        for (std::uint32_t b : members)
+          energy_before += kinetic_energy_of(p, b, shape.mass, inertia);
       const double tolerance = settings.tolerance * std::max(scale, 1e-300);
       long long it = 0;
       for (; it < settings.max_iterations; ++it) {

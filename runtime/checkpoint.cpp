@@ -61,6 +61,7 @@ struct Id {
   ~Id() {
     if (id >= 0 && close) close(id);
   }
+  Id(Id &&o) noexcept : id(o.id), close(o.close) { o.id = -1; }
   Id(const Id &) = delete;
   Id &operator=(const Id &) = delete;
   operator hid_t() const { return id; }
@@ -70,7 +71,6 @@ struct Id {
 
 struct Writer {
   std::string path;
-  hid_t file = -1;
   hid_t transfer = -1;  // collective MPI-IO transfers
   std::string problem;  // first failure on this rank
 
@@ -148,7 +148,6 @@ void write_hdf5(Communicator &comm, const fs::path &tmp, const Particles &owned,
   {
     Id file(H5Fcreate(w.path.c_str(), H5F_ACC_TRUNC, create, access), H5Fclose);
     if (file < 0) throw CheckpointError(fmt::format("{}: cannot create", w.path));
-    w.file = file;
     w.string_attribute(file, "format", kFormat);
     w.llong_attribute(file, "version", kCheckpointVersion);
     w.llong_attribute(file, "step", c.step);
@@ -201,7 +200,8 @@ struct Reader {
     if (!has(name)) fail(fmt::format("attribute {} is missing", name));
     Id attr(H5Aopen(file, name, H5P_DEFAULT), H5Aclose);
     long long v = 0;
-    if (H5Aread(attr, H5T_NATIVE_LLONG, &v) < 0) fail(fmt::format("cannot read attribute {}", name));
+    if (H5Aread(attr, H5T_NATIVE_LLONG, &v) < 0)
+      fail(fmt::format("cannot read attribute {}", name));
     return v;
   }
   std::string string_attribute(const char *name) const {
@@ -230,7 +230,7 @@ struct Reader {
       };
       fail(fmt::format("dataset {} has shape {}, expected {}", name, text(dims), text(expected)));
     }
-    return Id(H5Dopen2(file, name, H5P_DEFAULT), H5Dclose);
+    return set;
   }
   std::string text(const char *name) const {
     Id set = dataset(name, {});
@@ -288,8 +288,8 @@ void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &
   const std::array<const std::string *, 3> texts = {&contents.scene_toml, &contents.run_state,
                                                     &contents.root_state};
   for (std::size_t k = 0; k < texts.size(); ++k)
-    sizes[k] = static_cast<hsize_t>(comm.sum(
-        "checkpoint", comm.is_root() ? static_cast<long long>(texts[k]->size()) : 0LL));
+    sizes[k] = static_cast<hsize_t>(
+        comm.sum("checkpoint", comm.is_root() ? static_cast<long long>(texts[k]->size()) : 0LL));
   write_hdf5(comm, tmp, owned, count, contents, sizes);
   std::string problem;
   if (comm.is_root()) {
@@ -302,7 +302,8 @@ void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &
         std::fstream out(tmp, std::ios::in | std::ios::out | std::ios::binary);
         out.seekp(0);
         out.write(block.data(), static_cast<std::streamsize>(block.size()));
-        if (!out) throw CheckpointError(fmt::format("{}: cannot seal the user block", tmp.string()));
+        if (!out)
+          throw CheckpointError(fmt::format("{}: cannot seal the user block", tmp.string()));
       }
       fsync_path(tmp, false);
       std::error_code ec;
@@ -343,7 +344,8 @@ Checkpoint read_checkpoint(const fs::path &path) {
       r.fail(fmt::format("checkpoint version {}, this hardrod reads version {}", version,
                          kCheckpointVersion));
     if (size != bytes.size())
-      r.fail(fmt::format("truncated or extended: {} bytes on disk, {} written", bytes.size(), size));
+      r.fail(
+          fmt::format("truncated or extended: {} bytes on disk, {} written", bytes.size(), size));
     const std::uint64_t actual = content_hash(bytes, kUserBlock);
     if (actual != hash)
       r.fail(fmt::format("corrupted: content hash {:016x}, written {:016x}", actual, hash));
@@ -352,7 +354,8 @@ Checkpoint read_checkpoint(const fs::path &path) {
   Id file(H5Fopen(r.path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (file < 0) r.fail("not a readable HDF5 file");
   r.file = file;
-  if (r.string_attribute("format") != kFormat) r.fail("attribute format is not \"hardrod checkpoint\"");
+  if (r.string_attribute("format") != kFormat)
+    r.fail("attribute format is not \"hardrod checkpoint\"");
   const long long version = r.llong_attribute("version");
   if (version != kCheckpointVersion)
     r.fail(fmt::format("checkpoint version {}, this hardrod reads version {}", version,

@@ -38,46 +38,45 @@ int main(int argc, char **argv) {
   run->add_option("--out", options.output_dir,
                   "output directory (default: the scene's output.dir)");
   run->add_flag("--force", options.force, "overwrite an existing run in the output directory");
-  run->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
-      ->check(CLI::PositiveNumber);
-  run->add_flag("--quiet", quiet, "no progress output");
   bool no_bind = false;
-  run->add_flag("--no-bind", no_bind, "do not bind OpenMP threads to cores");
-  run->add_flag("--verify", options.verify,
-                "after every step check that every body is owned once and every shadow equals "
-                "its owner (slow; for debugging)");
   std::string grid;
-  const auto grid_check = [](const std::string &g) {
-    int a, b, c;
-    char t;
-    if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
-      return std::string("--grid must look like 2x2x1 (three positive integers), got '") + g + "'";
-    return std::string();
+  // The options of a process that steps a simulation: the same for run and resume.
+  const auto add_execution_options = [&](CLI::App *cmd) {
+    cmd->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_flag("--quiet", quiet, "no progress output");
+    cmd->add_flag("--no-bind", no_bind, "do not bind OpenMP threads to cores");
+    cmd->add_flag("--verify", options.verify,
+                  "after every step check that every body is owned once and every shadow equals "
+                  "its owner (slow; for debugging)");
+    cmd->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
+        ->check([](const std::string &g) {
+          int a, b, c;
+          char t;
+          if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
+            return "--grid must look like 2x2x1 (three positive integers), got '" + g + "'";
+          return std::string();
+        });
   };
-  run->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
-      ->check(grid_check);
+  add_execution_options(run);
 
   std::string resume_dir, checkpoint_path;
   auto *resume = app.add_subcommand(
       "resume", "continue a run from its newest checkpoint, exactly, to its (raised) step target");
   resume->add_option("dir", resume_dir, "run directory")->required();
-  resume->add_option("--set", overrides,
-                     "raise the target or change output intervals, e.g. --set run.steps=200000")
+  resume
+      ->add_option("--set", overrides,
+                   "raise the target or change output intervals, e.g. --set run.steps=200000")
       ->type_name("KEY=VALUE");
   resume->add_option("--checkpoint", checkpoint_path,
                      "checkpoint file to continue from (default: DIR/checkpoint.h5)");
-  resume->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
-      ->check(CLI::PositiveNumber);
-  resume->add_flag("--quiet", quiet, "no progress output");
-  resume->add_flag("--no-bind", no_bind, "do not bind OpenMP threads to cores");
-  resume->add_flag("--verify", options.verify, "check body bookkeeping after every step (slow)");
-  resume->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
-      ->check(grid_check);
+  add_execution_options(resume);
 
   std::string export_file, export_out;
   long long export_frame = -1;
   auto *export_cmd = app.add_subcommand(
-      "export", "write one frame of an H5MD trajectory as extended XYZ (OVITO, ASE) for a quick look");
+      "export",
+      "write one frame of an H5MD trajectory as extended XYZ (OVITO, ASE) for a quick look");
   export_cmd->add_option("file", export_file, "H5MD file, e.g. DIR/trajectory.h5")->required();
   export_cmd->add_option("--frame", export_frame, "frame (< 0 counts from the end; default -1)");
   export_cmd->add_option("--out", export_out, "output file (default: standard output)");
@@ -140,7 +139,7 @@ int main(int argc, char **argv) {
     std::sscanf(grid.c_str(), "%dx%dx%d", &options.parallel.grid[0], &options.parallel.grid[1],
                 &options.parallel.grid[2]);
   hardrod::install_stop_signals();  // before MPI start-up, so that no signal is lost
-  hardrod::Communicator comm;  // initialises MPI (a single process without mpirun)
+  hardrod::Communicator comm;       // initialises MPI (a single process without mpirun)
   // Problems are found identically on every rank; rank 0 reports them.
   const bool resuming = app.got_subcommand("resume");
   const std::string source = resuming ? resume_dir : scene_path;

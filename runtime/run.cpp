@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -76,8 +76,8 @@ struct RunState {
   AngularCounts angular;
   double wall_seconds = 0.0;   // of earlier segments
   double setup_seconds = 0.0;  // of earlier segments (the initial configuration's included)
-  long long segments = 0;     // run + resumes before this one
-  long long list_builds = 0;  // neighbour-list builds of earlier segments
+  long long segments = 0;      // run + resumes before this one
+  long long list_builds = 0;   // neighbour-list builds of earlier segments
   // Output already written when the checkpoint was taken: a resume cuts the files back.
   long long timeseries_bytes = 0;
   long long trajectory_frames = 0;
@@ -86,9 +86,8 @@ struct RunState {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RunState, s_series, p_series, z_series, collisions,
                                    production_collisions, narrow_tests, contacts, multi_bodies,
                                    clusters, solver_iterations_max, solver_unconverged, max_depth,
-                                   solver_energy_change, running_sum, running_count,
-                                   kinetic_start, angular, wall_seconds, setup_seconds, segments,
-                                   list_builds,
+                                   solver_energy_change, running_sum, running_count, kinetic_start,
+                                   angular, wall_seconds, setup_seconds, segments, list_builds,
                                    timeseries_bytes, trajectory_frames)
 
 // A checkpoint's run_state: the run's accumulators, the simulation's totals of the sampling
@@ -135,7 +134,7 @@ class TimeSeries {
       "step,time,phase,order_parameter,pressure_star,pressure_star_running,"
       "kinetic_energy,temperature,collisions,max_overlap\n";
   // A new file with the header, or (resume) the existing one cut back to `keep_bytes`.
-  TimeSeries(const fs::path &path, long long keep_bytes) : path_(path) {
+  TimeSeries(const fs::path &path, long long keep_bytes) {
     if (keep_bytes >= 0) {
       std::error_code ec;
       const auto size = fs::file_size(path, ec);
@@ -165,7 +164,6 @@ class TimeSeries {
   long long bytes() { return static_cast<long long>(out_.tellp()); }
 
  private:
-  fs::path path_;
   std::ofstream out_;
 };
 
@@ -221,13 +219,14 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
       sim.restore_interval(saved.interval);
       sim.restore_thermostat_record(saved.thermostat);
       if (scene.frank && root) {
-        if (from->root_state.empty()) throw std::invalid_argument("the Frank accumulator is missing");
+        if (from->root_state.empty())
+          throw std::invalid_argument("the Frank accumulator is missing");
         frank = std::make_unique<FrankAccumulator>(
             FrankAccumulator::from_json(nlohmann::json::parse(from->root_state)));
       }
     } catch (const std::exception &e) {
-      throw CheckpointError(fmt::format("checkpoint at step {}: run_state unusable: {}",
-                                        from->step, e.what()));
+      throw CheckpointError(
+          fmt::format("checkpoint at step {}: run_state unusable: {}", from->step, e.what()));
     }
   } else {
     st.kinetic_start = sim.kinetic_energy();
@@ -633,9 +632,8 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
 }
 
 // Keys a resume may change: the step target and how often things are written.
-const std::array<std::string, 4> kResumableKeys = {"run.steps", "output.checkpoint_interval",
-                                                   "output.snapshot_interval",
-                                                   "output.log_interval"};
+const std::array<std::string, 4> kResumableKeys = {
+    "run.steps", "output.checkpoint_interval", "output.snapshot_interval", "output.log_interval"};
 
 }  // namespace
 
@@ -656,10 +654,14 @@ int stop_signal() { return g_stop_signal; }
 
 std::string stop_signal_name() {
   switch (g_stop_signal) {
-    case SIGTERM: return "SIGTERM";
-    case SIGUSR1: return "SIGUSR1";
-    case SIGINT: return "SIGINT";
-    default: return "a signal to another rank";
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGUSR1:
+      return "SIGUSR1";
+    case SIGINT:
+      return "SIGINT";
+    default:
+      return "a signal to another rank";
   }
 }
 
@@ -680,8 +682,8 @@ nlohmann::json resume_run(const std::string &dir, const std::vector<std::string>
           o));
   }
   if (!problems.empty()) throw SceneError(problems);
-  const fs::path path = checkpoint_path.empty() ? fs::path(dir) / kCheckpointFile
-                                                : fs::path(checkpoint_path);
+  const fs::path path =
+      checkpoint_path.empty() ? fs::path(dir) / kCheckpointFile : fs::path(checkpoint_path);
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
     throw CheckpointError(fmt::format("{}: no such run directory", dir));
@@ -694,8 +696,8 @@ nlohmann::json resume_run(const std::string &dir, const std::vector<std::string>
   Checkpoint c = read_checkpoint(path);
   const Scene scene = parse_scene(c.scene_toml, overrides, path.string() + ":/scene");
   if (scene.n != c.n)
-    throw CheckpointError(fmt::format("{}: the scene has n = {}, the bodies {}", path.string(),
-                                      scene.n, c.n));
+    throw CheckpointError(
+        fmt::format("{}: the scene has n = {}, the bodies {}", path.string(), scene.n, c.n));
   const long long total = scene.equilibration_steps + scene.steps;
   if (total < c.step)
     throw SceneError({fmt::format(

@@ -4,10 +4,10 @@
 #pragma once
 
 #include <functional>
-#include <stdexcept>
-#include <vector>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "runtime/scene.hpp"
 #include "runtime/simulation.hpp"

@@ -600,8 +600,8 @@ void read_init(Reader &in, Scene &scene, Validity &ok) {
                "must be > 0 and finite");
   std::string configuration = "lattice";
   if (in.get("init", "configuration", configuration)) {
-    const auto known = std::find(std::begin(kConfigurations), std::end(kConfigurations),
-                                 configuration);
+    const auto known =
+        std::find(std::begin(kConfigurations), std::end(kConfigurations), configuration);
     if (in.check("init", "configuration", known != std::end(kConfigurations),
                  "must be \"lattice\", \"isotropic\" or \"file\""))
       scene.configuration = static_cast<Configuration>(known - std::begin(kConfigurations));
@@ -700,16 +700,15 @@ std::string scene_to_toml(const Scene &scene) {
       << "box = [" << format_real(box.x) << ", " << format_real(box.y) << ", " << format_real(box.z)
       << "]\n\n"
       << "[init]\n"
-      << "configuration = "
-      << quote(kConfigurations[static_cast<std::size_t>(scene.configuration)]) << "\n";
+      << "configuration = " << quote(kConfigurations[static_cast<std::size_t>(scene.configuration)])
+      << "\n";
   if (scene.configuration == Configuration::kLattice)
-    out << "lattice = [" << scene.lattice[0] << ", " << scene.lattice[1] << ", "
-        << scene.lattice[2] << "]\n";
+    out << "lattice = [" << scene.lattice[0] << ", " << scene.lattice[1] << ", " << scene.lattice[2]
+        << "]\n";
   if (scene.configuration == Configuration::kFile)
     out << "file = " << quote(scene.init_file) << "\n"
         << "frame = " << scene.init_frame << "\n";
-  out
-      << "axis = " << quote(kAxisNames[std::clamp(scene.axis, 0, 2)]) << "\n"
+  out << "axis = " << quote(kAxisNames[std::clamp(scene.axis, 0, 2)]) << "\n"
       << "seed = " << scene.seed << "\n"
       << "temperature = " << format_real(scene.temperature) << "\n\n"
       << "[run]\n"

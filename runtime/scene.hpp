@@ -54,8 +54,8 @@ struct Scene {
   double skin = 0.3;  // neighbour-list skin in D (speed only)
   // [output]
   std::string output_dir = "runs/default";
-  long long log_interval = 0;       // steps between plain progress lines; 0 = auto
-  long long snapshot_interval = 0;  // steps between H5MD frames; 0 = the final state only
+  long long log_interval = 0;         // steps between plain progress lines; 0 = auto
+  long long snapshot_interval = 0;    // steps between H5MD frames; 0 = the final state only
   long long checkpoint_interval = 0;  // steps between checkpoints; 0 = at the end (and on a signal)
   // [observables]
   bool frank = false;              // accumulate the Fourier order tensor (Frank constants)

@@ -475,14 +475,7 @@ IntervalTotals Simulation::pending_interval() {
   const auto sums = comm_.sum("checkpoint", {t.virial, t.solver_energy_change});
   t.virial = sums[0];
   t.solver_energy_change = sums[1];
-  for (long long *v : {&t.steps, &t.collisions, &t.narrow_phase_tests, &t.contacts,
-                       &t.multi_contact_bodies, &t.clusters, &t.solver_unconverged})
-    *v = comm_.sum("checkpoint", *v);
-  t.steps /= comm_.size();  // every rank counts every step
-  const auto mx =
-      comm_.max("checkpoint", {t.max_depth, static_cast<double>(t.solver_iterations_max)});
-  t.max_depth = mx[0];
-  t.solver_iterations_max = static_cast<long long>(mx[1]);
+  sum_counts_over_ranks(t, "checkpoint");  // steps: every rank counts every step already
   return t;
 }
 
@@ -525,17 +518,18 @@ Observation Simulation::observe() {
   o.totals = t;
   o.totals.virial = sums[8];
   o.totals.solver_energy_change = sums[9];
-  if (comm_.size() > 1) {
-    for (long long *v :
-         {&o.totals.collisions, &o.totals.narrow_phase_tests, &o.totals.contacts,
-          &o.totals.multi_contact_bodies, &o.totals.clusters, &o.totals.solver_unconverged})
-      *v = comm_.sum("observe", *v);
-    const auto mx =
-        comm_.max("observe", {t.max_depth, static_cast<double>(t.solver_iterations_max)});
-    o.totals.max_depth = mx[0];
-    o.totals.solver_iterations_max = static_cast<long long>(mx[1]);
-  }
+  sum_counts_over_ranks(o.totals, "observe");
   return o;
+}
+
+void Simulation::sum_counts_over_ranks(IntervalTotals &t, const char *name) {
+  if (comm_.size() == 1) return;
+  for (long long *v : {&t.collisions, &t.narrow_phase_tests, &t.contacts, &t.multi_contact_bodies,
+                       &t.clusters, &t.solver_unconverged})
+    *v = comm_.sum(name, *v);
+  const auto mx = comm_.max(name, {t.max_depth, static_cast<double>(t.solver_iterations_max)});
+  t.max_depth = mx[0];
+  t.solver_iterations_max = static_cast<long long>(mx[1]);
 }
 
 void Simulation::verify_bodies() {

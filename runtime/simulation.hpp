@@ -155,6 +155,8 @@ class Simulation {
   void apply_thermostat();
   void index_bodies();
   void report_problems(const std::vector<double> &flags);
+  // Sums the counters and takes the maxima of `t` over ranks (steps and exact sums untouched).
+  void sum_counts_over_ranks(IntervalTotals &t, const char *name);
   [[noreturn]] void fail(const std::string &message);
 
   Scene scene_;

@@ -146,17 +146,15 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
   const std::string position = "/particles/all/position/value", axis = "/particles/all/axis/value";
   const auto dims = dataset_shape(file, position, path);
   if (dims.size() != 3 || dims[2] != 3 || dims[1] == 0)
-    throw std::runtime_error(
-        fmt::format("{}: {} must have shape [frames][n][3]", path, position));
+    throw std::runtime_error(fmt::format("{}: {} must have shape [frames][n][3]", path, position));
   const auto frames = static_cast<long long>(dims[0]);
   const long long index = frame < 0 ? frames + frame : frame;
   if (index < 0 || index >= frames)
-    throw std::runtime_error(fmt::format("{}: frame {} requested, the file has {} frame(s)", path,
-                                         frame, frames));
+    throw std::runtime_error(
+        fmt::format("{}: frame {} requested, the file has {} frame(s)", path, frame, frames));
   const auto axis_dims = dataset_shape(file, axis, path);
   if (axis_dims != dims)
-    throw std::runtime_error(
-        fmt::format("{}: {} and {} differ in shape", path, position, axis));
+    throw std::runtime_error(fmt::format("{}: {} and {} differ in shape", path, position, axis));
   const auto edges_dims = dataset_shape(file, "/particles/all/box/edges", path);
   if (edges_dims != std::vector<hsize_t>{3})
     throw std::runtime_error(fmt::format("{}: /particles/all/box/edges must hold 3 numbers", path));
@@ -175,25 +173,26 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
                                      dims[0], path)[static_cast<std::size_t>(index)];
   }
   const auto n = static_cast<std::size_t>(dims[1]);
-  const auto x = read_rows<double>(file, position, H5T_NATIVE_DOUBLE, dims,
-                                   static_cast<hsize_t>(index), path);
-  const auto e = read_rows<double>(file, axis, H5T_NATIVE_DOUBLE, dims,
-                                   static_cast<hsize_t>(index), path);
+  const auto x =
+      read_rows<double>(file, position, H5T_NATIVE_DOUBLE, dims, static_cast<hsize_t>(index), path);
+  const auto e =
+      read_rows<double>(file, axis, H5T_NATIVE_DOUBLE, dims, static_cast<hsize_t>(index), path);
   Particles &p = out.bodies;
   p.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     p.id[i] = static_cast<std::int64_t>(i);
     for (std::size_t a = 0; a < 3; ++a) {
       if (!std::isfinite(x[3 * i + a]) || !std::isfinite(e[3 * i + a]))
-        throw std::runtime_error(fmt::format("{}: frame {}, body {}: position or axis not finite",
-                                             path, index, i));
+        throw std::runtime_error(
+            fmt::format("{}: frame {}, body {}: position or axis not finite", path, index, i));
     }
     p.set_position(i, {x[3 * i], x[3 * i + 1], x[3 * i + 2]});
     p.set_axis(i, {e[3 * i], e[3 * i + 1], e[3 * i + 2]});
     const double length = norm(p.axis(i));
     if (std::fabs(length - 1.0) > 1e-6)
-      throw std::runtime_error(fmt::format(
-          "{}: frame {}, body {}: axis has length {}, must be a unit vector", path, index, i, length));
+      throw std::runtime_error(
+          fmt::format("{}: frame {}, body {}: axis has length {}, must be a unit vector", path,
+                      index, i, length));
   }
   if (H5Lexists(file, "/particles/all/id", H5P_DEFAULT) > 0 &&
       H5Lexists(file, "/particles/all/id/value", H5P_DEFAULT) > 0) {
@@ -203,9 +202,9 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
           read_all<long long>(file, "/particles/all/id/value", H5T_NATIVE_LLONG, dims[1], path);
       for (std::size_t i = 0; i < n; ++i)
         if (ids[i] != static_cast<long long>(i))
-          throw std::runtime_error(fmt::format(
-              "{}: /particles/all/id/value[{}] = {}: bodies must be in id order 0..n-1", path, i,
-              ids[i]));
+          throw std::runtime_error(
+              fmt::format("{}: /particles/all/id/value[{}] = {}: bodies must be in id order 0..n-1",
+                          path, i, ids[i]));
     }
   }
   return out;
@@ -324,8 +323,8 @@ void TrajectoryWriter::cut_back(long long n, long long keep_frames) {
       H5Sclose(space);
       std::string problem;
       if (static_cast<long long>(dims[0]) < keep_frames)
-        problem = fmt::format("{} has {} frames, the checkpoint recorded {}", name, dims[0],
-                              keep_frames);
+        problem =
+            fmt::format("{} has {} frames, the checkpoint recorded {}", name, dims[0], keep_frames);
       else if (rank == 3 && static_cast<long long>(dims[1]) != n)
         problem = fmt::format("{} holds {} bodies, the scene {}", name, dims[1], n);
       dims[0] = static_cast<hsize_t>(keep_frames);

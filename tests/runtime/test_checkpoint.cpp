@@ -1,7 +1,5 @@
 // Checkpoint files in-process (one rank): exact round trip, and the checks a reader makes.
 // The end-to-end tests (resume, signals, hostile files) are tests/scripts/check_checkpoint.py.
-#include "runtime/checkpoint.hpp"
-
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -10,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+
+#include "runtime/checkpoint.hpp"
 
 namespace hardrod {
 namespace {
@@ -75,8 +75,10 @@ TEST_F(CheckpointFiles, RoundTripIsBitExactInIdOrder) {
   ASSERT_EQ(c.bodies.size(), expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
     EXPECT_EQ(c.bodies.id[i], static_cast<std::int64_t>(i));
-    for (auto [a, b] : {std::pair{&c.bodies.x, &expected.x}, {&c.bodies.ez, &expected.ez},
-                        {&c.bodies.vy, &expected.vy}, {&c.bodies.wz, &expected.wz}})
+    for (auto [a, b] : {std::pair{&c.bodies.x, &expected.x},
+                        {&c.bodies.ez, &expected.ez},
+                        {&c.bodies.vy, &expected.vy},
+                        {&c.bodies.wz, &expected.wz}})
       EXPECT_EQ(std::memcmp(&(*a)[i], &(*b)[i], sizeof(double)), 0) << i;
   }
   EXPECT_EQ(body_hash(c.bodies), body_hash(expected));

@@ -62,8 +62,12 @@ TEST_F(SnapshotStart, TakesPositionsAndAxesOfTheFrameBitForBit) {
   ASSERT_EQ(p.size(), last.size());
   for (std::size_t i = 0; i < p.size(); ++i) {
     EXPECT_EQ(p.id[i], static_cast<std::int64_t>(i));
-    for (auto [a, b] : {std::pair{&p.x, &last.x}, {&p.y, &last.y}, {&p.z, &last.z},
-                        {&p.ex, &last.ex}, {&p.ey, &last.ey}, {&p.ez, &last.ez}})
+    for (auto [a, b] : {std::pair{&p.x, &last.x},
+                        {&p.y, &last.y},
+                        {&p.z, &last.z},
+                        {&p.ex, &last.ex},
+                        {&p.ey, &last.ey},
+                        {&p.ez, &last.ez}})
       ASSERT_EQ(std::memcmp(&(*a)[i], &(*b)[i], sizeof(double)), 0) << i;
   }
   // Velocities are fresh at the scene's temperature, not the file's.
@@ -136,9 +140,7 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   EXPECT_NE(error_of(axis_file).find("body 3: axis has length"), std::string::npos)
       << error_of(axis_file);
   // A trajectory with no frame at all.
-  {
-    TrajectoryWriter w((dir / "empty.h5").string(), scene);
-  }
+  { TrajectoryWriter w((dir / "empty.h5").string(), scene); }
   Scene empty = scene;
   empty.init_file = (dir / "empty.h5").string();
   EXPECT_NE(error_of(empty).find("the file has 0 frame(s)"), std::string::npos) << error_of(empty);
@@ -206,7 +208,7 @@ TEST(SceneInit, IsotropicStartRunsAndRoundTrips) {
   EXPECT_EQ(scene.configuration, Configuration::kIsotropic);
   EXPECT_EQ(parse_scene(scene_to_toml(scene)).configuration, Configuration::kIsotropic);
   Simulation sim(scene);
-  EXPECT_LT(sim.order().S, 0.15);  // isotropic: ~1/sqrt(n)
+  EXPECT_LT(sim.order().S, 0.15);            // isotropic: ~1/sqrt(n)
   for (int k = 0; k < 100; ++k) sim.step();  // no overlap beyond run.max_overlap
   EXPECT_EQ(sim.current_step(), 100);
   // A density no isotropic packing reaches: a SceneError naming the key.
