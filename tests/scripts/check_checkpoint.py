@@ -325,7 +325,16 @@ def mode_hostile(r: Runner):
         del f["scene"]
         f["scene"] = np.frombuffer(text.encode(), dtype=np.int8)
 
+    def run_state_without(key):
+        def edit(f):
+            state = json.loads(bytes(f["run_state"][()]).decode())
+            del state["run"][key]
+            del f["run_state"]
+            f["run_state"] = np.frombuffer(json.dumps(state).encode(), dtype=np.int8)
+        return edit
+
     edited("NaN inside", nan_inside, ["not finite"])
+    edited("run_state without a physics series", run_state_without("s_series"), ["s_series"])
     edited("wrong N", wrong_n, ["expected [2303]"])
     edited("wrong shape", wrong_shape, ["shape [2304, 2]"])
     edited("wrong version attribute", wrong_format_version, ["version 2"])
@@ -361,6 +370,17 @@ def mode_hostile(r: Runner):
     (d / "checkpoint.h5").write_bytes(good)
     r.run(["resume", str(d), "--set", "run.steps=1200"])
     print("ok: the good checkpoint resumes after all that")
+    # A checkpoint of an earlier build, whose run_state lacks a bookkeeping key added since
+    # (setup_seconds), resumes to the same state.
+    older = r.work / "older-build"
+    shutil.copytree(d, older)
+    (older / "checkpoint.h5").write_bytes(good)
+    with h5py.File(older / "checkpoint.h5", "r+") as f:
+        run_state_without("setup_seconds")(f)
+    reseal(older / "checkpoint.h5")
+    r.run(["resume", str(older), "--set", "run.steps=1200"])
+    assert summary(older)["state_checksum"] == summary(d)["state_checksum"]
+    print("ok: a checkpoint without setup_seconds (earlier build) resumes to the same state")
 
 
 def main():
