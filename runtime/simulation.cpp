@@ -174,18 +174,30 @@ void Simulation::step() {
     ScopedRegion r(timers_, Region::kIntegrate);
     largest_bound = half_step(particles_, particles_.size(), shape, half_dt);
   }
-  agree_and_rebuild(largest_bound);
 
+  // 2. contacts at the midpoint, found before the step's one reduction so that it can also
+  // tell every rank whether any contact touches a rank boundary this step. A rank whose own
+  // bounds already expire the list skips this: it knows a rebuild follows.
   DetectionStats detected;
-  {  // 2. contacts at the midpoint
+  bool boundary = false;
+  const bool expired_here = neighbor_list_expired(list_, largest_bound, particles_.size());
+  if (!expired_here) {
     ScopedRegion r(timers_, Region::kDetect);
     detected = detect_contacts(particles_, scene_.box, shape, list_, contacts_);
+    note_depth(detected.max_depth);
+    boundary = touches_boundary();
   }
-  if (!(detected.max_depth <= scene_.max_overlap)) {
-    pending_depth_ = std::isnan(detected.max_depth) ? 1e300 : detected.max_depth;
-    pending_step_ = step_ + 1;
-    if (comm_.size() == 1) agree_and_rebuild(0.0);  // reports at once
+  const Agreement agreed = agree(largest_bound, boundary);
+  if (agreed.rebuild) {
+    rebuild();
+    ScopedRegion r(timers_, Region::kDetect);
+    detected = detect_contacts(particles_, scene_.box, shape, list_, contacts_);
+    note_depth(detected.max_depth);  // reported at the next step's agreement
+    if (comm_.size() == 1) report_pending_problems();
   }
+  // Contacts' results travel between ranks only when some rank has a contact that involves a
+  // shadow or a body that other ranks hold (agreed above), or the shadows were just renewed.
+  const bool exchange = comm_.size() > 1 && (agreed.boundary || agreed.rebuild);
 
   ResolutionStats resolved;
   std::vector<char> counted(contacts_.size(), 1);
@@ -195,10 +207,12 @@ void Simulation::step() {
     if (comm_.size() == 1) {
       resolved = resolve_clusters(particles_, shape, contacts_, clusters, {}, solver_);
     } else {
-      const std::vector<char> complete = complete_clusters(clusters);
+      // Without an exchange every cluster is made of bodies only this rank holds: complete.
+      const std::vector<char> complete =
+          exchange ? complete_clusters(clusters) : std::vector<char>(clusters.count(), 1);
       resolved =
           resolve_clusters(particles_, shape, contacts_, clusters, complete, solver_, owned_);
-      share_results(clusters, complete);
+      if (exchange) share_results(clusters, complete);
       // Each contact is counted once in the whole system: by the owner of its lower id.
       for (std::size_t k = 0; k < contacts_.size(); ++k) counted[k] = contacts_[k].i < owned_;
     }
@@ -238,19 +252,42 @@ void Simulation::step() {
   }
 }
 
-// One max-reduction per step: whether any rank's pair list expired, and any problem a
-// rank saw in the previous step (so that every rank stops together).
-void Simulation::agree_and_rebuild(double largest_bound) {
-  std::vector<double> flags{largest_bound, pending_depth_, pending_unresolved_,
-                            static_cast<double>(pending_step_), stop_requested_ ? 1.0 : 0.0};
+// One max-reduction per step: whether any rank's pair list expired, whether any rank has a
+// contact across a rank boundary, any problem a rank saw (so that every rank stops together)
+// and a stop asked for by a signal.
+Simulation::Agreement Simulation::agree(double largest_bound, bool boundary) {
+  std::vector<double> flags{largest_bound,
+                            pending_depth_,
+                            pending_unresolved_,
+                            static_cast<double>(pending_step_),
+                            stop_requested_ ? 1.0 : 0.0,
+                            boundary ? 1.0 : 0.0};
   if (comm_.size() > 1) flags = comm_.max("agree", flags);
   stop_agreed_ = flags[4] > 0.0;
   report_problems(flags);
-  if (!neighbor_list_expired(list_, flags[0], particles_.size())) return;
+  return {neighbor_list_expired(list_, flags[0], particles_.size()), flags[5] > 0.0};
+}
+
+void Simulation::rebuild() {
   ScopedRegion r(timers_, Region::kNeighborBuild);
   if (comm_.size() > 1) redistribute();
   build_neighbor_list(list_, particles_, particles_.size(), owned_, scene_.box, scene_.shape);
   index_bodies();
+}
+
+void Simulation::note_depth(double max_depth) {
+  if (max_depth <= scene_.max_overlap) return;
+  pending_depth_ = std::isnan(max_depth) ? 1e300 : max_depth;
+  pending_step_ = step_ + 1;
+}
+
+// A contact crosses a rank boundary when one of its bodies is a shadow here or has shadow
+// copies elsewhere: only then does another rank see it or need its result.
+bool Simulation::touches_boundary() const {
+  if (comm_.size() == 1) return false;
+  for (const Contact &c : contacts_)
+    if (shared_[c.i] || shared_[c.j]) return true;
+  return false;
 }
 
 void Simulation::report_pending_problems() {
@@ -339,6 +376,10 @@ void Simulation::index_bodies() {
   index_.clear();
   for (std::size_t i = 0; i < particles_.size(); ++i)
     index_[particles_.id[i]] = static_cast<std::uint32_t>(i);
+  shared_.assign(particles_.size(), 0);
+  if (comm_.size() == 1) return;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+    shared_[i] = i >= owned_ || !holding_.at(particles_.id[i]).holders.empty();
 }
 
 // A cluster seen here is complete when every body in it shows here all the contacts its

@@ -147,8 +147,16 @@ class Simulation {
     std::vector<int> holders;  // ranks with a shadow copy
   };
 
+  struct Agreement {
+    bool rebuild = false;   // some rank's pair list expired
+    bool boundary = false;  // some rank has a contact across a rank boundary
+  };
+
   void configure(Particles all, ParallelOptions parallel);
-  void agree_and_rebuild(double largest_bound);
+  Agreement agree(double largest_bound, bool boundary);
+  void rebuild();
+  void note_depth(double max_depth);
+  bool touches_boundary() const;
   void redistribute();
   std::vector<char> complete_clusters(const ContactClusters &clusters);
   void share_results(const ContactClusters &clusters, const std::vector<char> &resolved);
@@ -166,6 +174,7 @@ class Simulation {
   std::size_t owned_ = 0;
   std::unordered_map<std::int64_t, Holding> holding_;      // by id, for every held body
   std::unordered_map<std::int64_t, std::uint32_t> index_;  // id -> local index
+  std::vector<char> shared_;  // by local index: a shadow, or an owned body held elsewhere
   NeighborList list_;
   std::vector<Contact> contacts_;
   SolverSettings solver_;
