@@ -45,7 +45,12 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
     auto &s = second[tid];
     auto &r = recheck[tid];
     std::vector<std::uint32_t> near;  // candidates whose centres are within reach
-#pragma omp for schedule(dynamic, 4)
+    // Contiguous blocks of cells per thread, concatenated in thread order: the list comes out
+    // in cell order, which is body order. So the per-step passes, split statically over
+    // pairs (detection) and over bodies (integration), give each thread mostly its own
+    // bodies, and their motion bounds stay in its cache instead of moving between cores
+    // every step (with interleaved blocks, two threads detected no faster than one).
+#pragma omp for schedule(static)
     for (int c = 0; c < cl.cell_count(); ++c) {
       const int cx = c % cl.cells[0];
       const int cy = (c / cl.cells[0]) % cl.cells[1];
