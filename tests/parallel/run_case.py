@@ -61,6 +61,14 @@ def main():
             print("FAILED: too few collisions for a meaningful comparison")
             return 1
         print("same state as 1 x 1")
+    if args.ranks == 2 and args.reference:
+        # One partner: the contact exchanges ran in the steps where a contact crossed the rank
+        # boundary and were skipped in the others. Both paths must have been compared above.
+        per_step = summary["communication_per_rank"]["degrees"]["messages_per_step"]
+        print(f"contact exchanges in {100 * per_step:.1f} % of steps")
+        if not 0.0 < per_step < 1.0:
+            print("FAILED: the scene does not exercise both the exchange and the skipped exchange")
+            return 1
     return 0
 
 
