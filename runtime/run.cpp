@@ -83,60 +83,36 @@ struct RunState {
   long long trajectory_frames = 0;
 };
 
-// Written with every key; read strictly for the physics, leniently for the bookkeeping keys that
-// later versions added to the same checkpoint format (a checkpoint of an earlier build resumes).
-void to_json(nlohmann::json &j, const RunState &r) {
-  j = nlohmann::json{{"s_series", r.s_series},
-                     {"p_series", r.p_series},
-                     {"z_series", r.z_series},
-                     {"collisions", r.collisions},
-                     {"production_collisions", r.production_collisions},
-                     {"narrow_tests", r.narrow_tests},
-                     {"contacts", r.contacts},
-                     {"multi_bodies", r.multi_bodies},
-                     {"clusters", r.clusters},
-                     {"solver_iterations_max", r.solver_iterations_max},
-                     {"solver_unconverged", r.solver_unconverged},
-                     {"max_depth", r.max_depth},
-                     {"solver_energy_change", r.solver_energy_change},
-                     {"running_sum", r.running_sum},
-                     {"running_count", r.running_count},
-                     {"kinetic_start", r.kinetic_start},
-                     {"angular", r.angular},
-                     {"wall_seconds", r.wall_seconds},
-                     {"setup_seconds", r.setup_seconds},
-                     {"segments", r.segments},
-                     {"list_builds", r.list_builds},
-                     {"timeseries_bytes", r.timeseries_bytes},
-                     {"trajectory_frames", r.trajectory_frames}};
-}
+// Keys absent from a checkpoint keep their defaults, so that a checkpoint of an earlier build
+// (without the bookkeeping keys added since, e.g. setup_seconds) resumes; the physics keys
+// are required (kRequiredRunKeys, checked before reading).
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(RunState, s_series, p_series, z_series, collisions,
+                                                production_collisions, narrow_tests, contacts,
+                                                multi_bodies, clusters, solver_iterations_max,
+                                                solver_unconverged, max_depth, solver_energy_change,
+                                                running_sum, running_count, kinetic_start, angular,
+                                                wall_seconds, setup_seconds, segments, list_builds,
+                                                timeseries_bytes, trajectory_frames)
 
-void from_json(const nlohmann::json &j, RunState &r) {
-  j.at("s_series").get_to(r.s_series);
-  j.at("p_series").get_to(r.p_series);
-  j.at("z_series").get_to(r.z_series);
-  j.at("collisions").get_to(r.collisions);
-  j.at("production_collisions").get_to(r.production_collisions);
-  j.at("narrow_tests").get_to(r.narrow_tests);
-  j.at("contacts").get_to(r.contacts);
-  j.at("multi_bodies").get_to(r.multi_bodies);
-  j.at("clusters").get_to(r.clusters);
-  j.at("solver_iterations_max").get_to(r.solver_iterations_max);
-  j.at("solver_unconverged").get_to(r.solver_unconverged);
-  j.at("max_depth").get_to(r.max_depth);
-  j.at("solver_energy_change").get_to(r.solver_energy_change);
-  j.at("running_sum").get_to(r.running_sum);
-  j.at("running_count").get_to(r.running_count);
-  j.at("kinetic_start").get_to(r.kinetic_start);
-  j.at("angular").get_to(r.angular);
-  j.at("timeseries_bytes").get_to(r.timeseries_bytes);
-  j.at("trajectory_frames").get_to(r.trajectory_frames);
-  // Timing and counting of earlier segments only: absent in checkpoints of earlier builds.
-  r.wall_seconds = j.value("wall_seconds", 0.0);
-  r.setup_seconds = j.value("setup_seconds", 0.0);
-  r.segments = j.value("segments", 0LL);
-  r.list_builds = j.value("list_builds", 0LL);
-}
+constexpr std::array kRequiredRunKeys = {"s_series",
+                                         "p_series",
+                                         "z_series",
+                                         "collisions",
+                                         "production_collisions",
+                                         "narrow_tests",
+                                         "contacts",
+                                         "multi_bodies",
+                                         "clusters",
+                                         "solver_iterations_max",
+                                         "solver_unconverged",
+                                         "max_depth",
+                                         "solver_energy_change",
+                                         "running_sum",
+                                         "running_count",
+                                         "kinetic_start",
+                                         "angular",
+                                         "timeseries_bytes",
+                                         "trajectory_frames"};
 
 // A checkpoint's run_state: the run's accumulators, the simulation's totals of the sampling
 // interval in progress (all ranks) and the thermostat record.
@@ -260,7 +236,11 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   std::unique_ptr<FrankAccumulator> frank;
   if (from) {
     try {
-      const auto saved = nlohmann::json::parse(from->run_state).get<SavedState>();
+      const auto state = nlohmann::json::parse(from->run_state);
+      for (const char *key : kRequiredRunKeys)
+        if (!state.at("run").contains(key))
+          throw std::invalid_argument(fmt::format("run.{} is missing", key));
+      const auto saved = state.get<SavedState>();
       st = saved.run;
       if (static_cast<int>(st.angular.counts.size()) != kAngularBins)
         throw std::invalid_argument("angular_counts has the wrong number of bins");

@@ -182,17 +182,13 @@ void Simulation::step() {
   bool boundary = false;
   const bool expired_here = neighbor_list_expired(list_, largest_bound, particles_.size());
   if (!expired_here) {
-    ScopedRegion r(timers_, Region::kDetect);
-    detected = detect_contacts(particles_, scene_.box, shape, list_, contacts_);
-    note_depth(detected.max_depth);
+    detected = detect();
     boundary = touches_boundary();
   }
   const Agreement agreed = agree(largest_bound, boundary);
   if (agreed.rebuild) {
     rebuild();
-    ScopedRegion r(timers_, Region::kDetect);
-    detected = detect_contacts(particles_, scene_.box, shape, list_, contacts_);
-    note_depth(detected.max_depth);  // reported at the next step's agreement
+    detected = detect();  // a problem is reported at the next step's agreement
     if (comm_.size() == 1) report_pending_problems();
   }
   // Contacts' results travel between ranks only when some rank has a contact that involves a
@@ -275,10 +271,16 @@ void Simulation::rebuild() {
   index_bodies();
 }
 
-void Simulation::note_depth(double max_depth) {
-  if (max_depth <= scene_.max_overlap) return;
-  pending_depth_ = std::isnan(max_depth) ? 1e300 : max_depth;
-  pending_step_ = step_ + 1;
+// Contacts at the midpoint; an overlap beyond the tolerance is kept for the agreement.
+DetectionStats Simulation::detect() {
+  ScopedRegion r(timers_, Region::kDetect);
+  const DetectionStats detected =
+      detect_contacts(particles_, scene_.box, scene_.shape, list_, contacts_);
+  if (!(detected.max_depth <= scene_.max_overlap)) {
+    pending_depth_ = std::isnan(detected.max_depth) ? 1e300 : detected.max_depth;
+    pending_step_ = step_ + 1;
+  }
+  return detected;
 }
 
 // A contact crosses a rank boundary when one of its bodies is a shadow here or has shadow

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "kernels/contact.hpp"
+#include "kernels/contact_detection.hpp"
 #include "kernels/contact_resolution.hpp"
 #include "kernels/exact_sum.hpp"
 #include "kernels/fourier_order_tensor.hpp"
@@ -155,7 +156,7 @@ class Simulation {
   void configure(Particles all, ParallelOptions parallel);
   Agreement agree(double largest_bound, bool boundary);
   void rebuild();
-  void note_depth(double max_depth);
+  DetectionStats detect();
   bool touches_boundary() const;
   void redistribute();
   std::vector<char> complete_clusters(const ContactClusters &clusters);
