@@ -9,6 +9,52 @@
 
 namespace hardrod {
 
+namespace {
+
+// Ring of each shadow in the pair graph (1: listed with an owned body, 2: with a ring-1
+// shadow, 3: further). Keeps the pairs with an owned or ring-1 body, and stores the shadows
+// of rings 1 and 2 before the others, in their order, so the per-step passes advance
+// [0, list.active). A contact of a ring-2 shadow with a ring-3 one is not seen here: the
+// ring-2 body's degree then falls short of its owner's count, so its cluster is left to a
+// rank that sees all of it (Simulation::complete_clusters).
+void keep_shadow_rings(NeighborList &list, Particles &p, std::size_t count, std::size_t owned) {
+  std::vector<std::uint8_t> ring(count, 3);
+  std::fill(ring.begin(), ring.begin() + static_cast<long>(owned), 0);
+  const std::size_t npairs = list.pair_count();
+  for (int r = 1; r <= 2; ++r)
+    for (std::size_t k = 0; k < npairs; ++k) {
+      const std::uint32_t a = list.first[k], b = list.second[k];
+      if (ring[a] == r - 1 && ring[b] > r) ring[b] = static_cast<std::uint8_t>(r);
+      if (ring[b] == r - 1 && ring[a] > r) ring[a] = static_cast<std::uint8_t>(r);
+    }
+  std::vector<std::uint32_t> order(owned), where(count);
+  for (std::uint32_t i = 0; i < owned; ++i) order[i] = where[i] = i;
+  for (int pass = 0; pass < 2; ++pass)
+    for (std::size_t i = owned; i < count; ++i)
+      if ((ring[i] <= 2) == (pass == 0)) {
+        where[i] = static_cast<std::uint32_t>(order.size());
+        order.push_back(static_cast<std::uint32_t>(i));
+      }
+  list.active = static_cast<std::size_t>(
+      owned + std::count_if(ring.begin() + static_cast<long>(owned), ring.end(),
+                            [](std::uint8_t r) { return r <= 2; }));
+  p.permute(order);
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < npairs; ++k) {
+    const std::uint32_t a = list.first[k], b = list.second[k];
+    if (std::min(ring[a], ring[b]) > 1) continue;
+    list.first[kept] = where[a];
+    list.second[kept] = where[b];
+    list.recheck_at[kept] = list.recheck_at[k];
+    ++kept;
+  }
+  list.first.resize(kept);
+  list.second.resize(kept);
+  list.recheck_at.resize(kept);
+}
+
+}  // namespace
+
 void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, std::size_t owned,
                          const Box &box, const Shape &shape) {
   const double reach = shape.diameter + list.skin;  // segment distance kept in the list
@@ -94,6 +140,8 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
     list.second.insert(list.second.end(), second[t].begin(), second[t].end());
     list.recheck_at.insert(list.recheck_at.end(), recheck[t].begin(), recheck[t].end());
   }
+  list.active = count;
+  if (count > owned) keep_shadow_rings(list, p, count, owned);
   std::fill(p.motion_bound.begin(), p.motion_bound.begin() + static_cast<long>(count), 0.0);
   list.bodies = count;
   ++list.builds;

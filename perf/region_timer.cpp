@@ -22,6 +22,8 @@ const char *region_name(Region r) {
       return "fourier";
     case Region::kOutput:
       return "output";
+    case Region::kAgree:
+      return "agree";
     case Region::kCount:
       break;
   }

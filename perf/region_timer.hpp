@@ -20,6 +20,7 @@ enum class Region : int {
   kObserve,
   kFourier,
   kOutput,
+  kAgree,  // the step's one reduction, including the wait for the slowest rank
   kCount
 };
 

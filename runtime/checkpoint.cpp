@@ -6,10 +6,12 @@
 #include <mpi.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <numeric>
 
 namespace hardrod {
 
@@ -159,11 +161,18 @@ void write_hdf5(Communicator &comm, const fs::path &tmp, const Particles &owned,
     w.text(file, "root_state", c.root_state, text_sizes[2], root);
 
     Id bodies(H5Gcreate2(file, "bodies", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    // Rows in id order: HDF5 sorts an unsorted point selection itself, by repeated
+    // memmoves (a third of a one-core run's final checkpoint, 0.1 s, for 18432 bodies
+    // stored in cell order).
+    std::vector<std::size_t> order(count);
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t a, std::size_t b) { return owned.id[a] < owned.id[b]; });
     std::vector<hsize_t> ids(count);
     std::vector<long long> id_values(count);
-    for (std::size_t i = 0; i < count; ++i) {
-      ids[i] = static_cast<hsize_t>(owned.id[i]);
-      id_values[i] = owned.id[i];
+    for (std::size_t k = 0; k < count; ++k) {
+      ids[k] = static_cast<hsize_t>(owned.id[order[k]]);
+      id_values[k] = owned.id[order[k]];
     }
     const hsize_t n = static_cast<hsize_t>(c.n);
     w.rows(bodies, "id", H5T_NATIVE_LLONG, n, 1, ids, id_values.data());
@@ -175,8 +184,8 @@ void write_hdf5(Communicator &comm, const fs::path &tmp, const Particles &owned,
     }};
     std::vector<double> buffer(3 * count);
     for (std::size_t e = 0; e < kVectors.size(); ++e) {
-      for (std::size_t i = 0; i < count; ++i)
-        for (std::size_t a = 0; a < 3; ++a) buffer[3 * i + a] = (*fields[e][a])[i];
+      for (std::size_t k = 0; k < count; ++k)
+        for (std::size_t a = 0; a < 3; ++a) buffer[3 * k + a] = (*fields[e][a])[order[k]];
       w.rows(bodies, kVectors[e], H5T_NATIVE_DOUBLE, n, 3, ids, buffer.data());
     }
   }  // collective close: the file is complete on disk

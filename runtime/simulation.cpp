@@ -160,7 +160,7 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
       (*dst)[k] = (*src)[i];
   }
   particles_ = std::move(mine);
-  owned_ = particles_.size();
+  owned_ = active_ = particles_.size();
 }
 
 void Simulation::fail(const std::string &message) { throw PhysicsError(message); }
@@ -172,7 +172,7 @@ void Simulation::step() {
   double largest_bound = 0.0;
   {  // 1. first half: free flight to the midpoint, owned bodies and shadows alike
     ScopedRegion r(timers_, Region::kIntegrate);
-    largest_bound = half_step(particles_, particles_.size(), shape, half_dt);
+    largest_bound = half_step(particles_, active_, shape, half_dt);
   }
 
   // 2. contacts at the midpoint, found before the step's one reduction so that it can also
@@ -221,7 +221,7 @@ void Simulation::step() {
   }
   {  // 4. second half
     ScopedRegion r(timers_, Region::kIntegrate);
-    half_step(particles_, particles_.size(), shape, half_dt);
+    half_step(particles_, active_, shape, half_dt);
   }
   ++step_;
 
@@ -240,7 +240,7 @@ void Simulation::step() {
 
   if (step_ % kConstraintInterval == 0) {
     ScopedRegion r(timers_, Region::kIntegrate);
-    restore_rotor_constraints(particles_, particles_.size());
+    restore_rotor_constraints(particles_, active_);
   }
   if (scene_.thermostat_interval > 0 && step_ % scene_.thermostat_interval == 0) {
     ScopedRegion r(timers_, Region::kThermostat);
@@ -258,7 +258,10 @@ Simulation::Agreement Simulation::agree(double largest_bound, bool boundary) {
                             static_cast<double>(pending_step_),
                             stop_requested_ ? 1.0 : 0.0,
                             boundary ? 1.0 : 0.0};
-  if (comm_.size() > 1) flags = comm_.max("agree", flags);
+  if (comm_.size() > 1) {
+    ScopedRegion r(timers_, Region::kAgree);
+    flags = comm_.max("agree", flags);
+  }
   stop_agreed_ = flags[4] > 0.0;
   report_problems(flags);
   return {neighbor_list_expired(list_, flags[0], particles_.size()), flags[5] > 0.0};
@@ -268,6 +271,7 @@ void Simulation::rebuild() {
   ScopedRegion r(timers_, Region::kNeighborBuild);
   if (comm_.size() > 1) redistribute();
   build_neighbor_list(list_, particles_, particles_.size(), owned_, scene_.box, scene_.shape);
+  active_ = list_.active;
   index_bodies();
 }
 
@@ -607,7 +611,7 @@ void Simulation::verify_bodies() {
   std::unordered_map<std::int64_t, std::size_t> where;
   for (std::size_t i = 0; i < reference.size(); ++i) where[reference.id[i]] = i;
   long long mismatches = 0;
-  for (std::size_t i = owned_; i < particles_.size(); ++i) {
+  for (std::size_t i = owned_; i < active_; ++i) {  // the shadows this rank advances
     const auto it = where.find(particles_.id[i]);
     if (it == where.end()) {
       ++mismatches;

@@ -173,6 +173,7 @@ class Simulation {
   Domain domain_;
   Particles particles_;
   std::size_t owned_ = 0;
+  std::size_t active_ = 0;  // [0, active_) advanced every step: owned bodies, listed shadows
   std::unordered_map<std::int64_t, Holding> holding_;      // by id, for every held body
   std::unordered_map<std::int64_t, std::uint32_t> index_;  // id -> local index
   std::vector<char> shared_;  // by local index: a shadow, or an owned body held elsewhere

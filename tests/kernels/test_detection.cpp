@@ -154,5 +154,49 @@ TEST(Detection, ContactAcrossThePeriodicBoundary) {
   EXPECT_NEAR(contacts[0].separation.x, 0.7, 1e-12);  // x_i - x_j through the boundary
 }
 
+// With shadows, a rank keeps the pairs that can matter to the clusters it resolves: those
+// with an owned body or with a shadow listed next to one (ring 1). A chain of parallel rods
+// 1 D apart, body 0 owned and bodies 1..4 shadows, gives rings 1, 2, 3, 3: the pairs (0,1)
+// and (1,2) are kept, (2,3) and (3,4) are not, and bodies 3 and 4 go past list.active.
+TEST(Detection, ShadowsBeyondTheSecondRingAreNotAdvanced) {
+  Shape shape;
+  Box box;
+  box.length = {40, 40, 40};
+  Particles p;
+  p.resize(6);
+  // Storage order scrambled on purpose: the build sorts owned bodies and shadows by cell.
+  p.id = {0, 4, 2, 3, 1, 5};
+  const double y[6] = {5.0, 9.0, 7.0, 8.0, 6.0, 30.0};  // id k at y = 5 + k, id 5 far away
+  for (std::size_t i = 0; i < 6; ++i) {
+    p.set_position(i, {10.0, y[i], 10.0});
+    p.set_axis(i, {1, 0, 0});
+  }
+  NeighborList list;
+  list.skin = 0.3;
+  build_neighbor_list(list, p, 6, 1, box, shape);
+  ASSERT_EQ(list.bodies, 6u);
+  EXPECT_EQ(list.active, 3u);
+  PairSet kept;
+  for (std::size_t k = 0; k < list.pair_count(); ++k) {
+    ASSERT_LT(list.first[k], list.active);
+    ASSERT_LT(list.second[k], list.active);
+    const std::int64_t a = p.id[list.first[k]], b = p.id[list.second[k]];
+    kept.insert({std::min(a, b), std::max(a, b)});
+  }
+  EXPECT_EQ(kept, (PairSet{{0, 1}, {1, 2}}));
+  EXPECT_EQ(p.id[0], 0);
+  const std::set<std::int64_t> advanced{p.id.begin(), p.id.begin() + 3};
+  EXPECT_EQ(advanced, (std::set<std::int64_t>{0, 1, 2}));
+  // Every body is still held, and its position travelled with its id.
+  for (std::size_t i = 0; i < 6; ++i)
+    EXPECT_EQ(p.position(i).y, 5.0 + (p.id[i] == 5 ? 25 : p.id[i]));
+
+  // One rank (no shadows): every body is advanced and every pair kept.
+  NeighborList all;
+  build_neighbor_list(all, p, 6, box, shape);
+  EXPECT_EQ(all.active, 6u);
+  EXPECT_EQ(all.pair_count(), 4u);
+}
+
 }  // namespace
 }  // namespace hardrod
