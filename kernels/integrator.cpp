@@ -68,7 +68,10 @@ inline void rotate_axis(double &ex, double &ey, double &ez, double wx, double wy
 namespace {
 
 // Spheres (Rotate = false) skip the rotation entirely: a scene pays only for what it uses.
-template <bool Rotate>
+// Halves = 2 is the second half of one step and the first half of the next in one pass:
+// each half's additions and rotation are applied in turn, so the bits are those of two
+// passes, with one load and store of every body and one square root and rotation series.
+template <bool Rotate, int Halves>
 double drift(Particles &p, long n, double arm, double half_dt) {
   double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(), *__restrict ez = p.ez.data();
@@ -84,32 +87,48 @@ double drift(Particles &p, long n, double arm, double half_dt) {
 #pragma omp parallel for simd schedule(static) reduction(+ : large_angles) \
     reduction(max : largest) if (n > kParallelBodies)
   for (long i = 0; i < n; ++i) {
-    x[i] += vx[i] * half_dt;
-    y[i] += vy[i] * half_dt;
-    z[i] += vz[i] * half_dt;
+    const double dx = vx[i] * half_dt, dy = vy[i] * half_dt, dz = vz[i] * half_dt;
+    double xi = x[i], yi = y[i], zi = z[i], bi = bound[i];
     const double speed = std::sqrt(vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i]);
+    double grow;
     if constexpr (Rotate) {
       const double w2 = wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
       // The chord a point at distance L/2 from the centre sweeps is at most L/2 |w| dt/2.
       // A relative 1e-12 on top covers the rounding of this sum and of the rotation.
-      bound[i] += (speed + arm * std::sqrt(w2)) * half_dt * (1.0 + 1e-12);
+      grow = (speed + arm * std::sqrt(w2)) * half_dt * (1.0 + 1e-12);
       // Branch-free so the loop vectorises: a large angle gets the identity here and its
       // rotation in the scalar pass below.
       const bool series = w2 <= max_series_w2;
       large_angles += series ? 0 : 1;
-      rotate_axis(ex[i], ey[i], ez[i], wx[i], wy[i], wz[i],
-                  series_rotation(series ? w2 : 0.0, series ? half_dt : 0.0));
+      const Rotation r = series_rotation(series ? w2 : 0.0, series ? half_dt : 0.0);
+      double exi = ex[i], eyi = ey[i], ezi = ez[i];
+      for (int h = 0; h < Halves; ++h) rotate_axis(exi, eyi, ezi, wx[i], wy[i], wz[i], r);
+      ex[i] = exi;
+      ey[i] = eyi;
+      ez[i] = ezi;
     } else {
-      bound[i] += speed * half_dt * (1.0 + 1e-12);
+      grow = speed * half_dt * (1.0 + 1e-12);
     }
-    largest = largest > bound[i] ? largest : bound[i];
+    for (int h = 0; h < Halves; ++h) {
+      xi += dx;
+      yi += dy;
+      zi += dz;
+      bi += grow;
+    }
+    x[i] = xi;
+    y[i] = yi;
+    z[i] = zi;
+    bound[i] = bi;
+    largest = largest > bi ? largest : bi;
   }
   if (large_angles > 0) {
 #pragma omp parallel for schedule(static) if (n > kParallelBodies)
     for (long i = 0; i < n; ++i) {
       const double w2 = wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
-      if (w2 > max_series_w2)
-        rotate_axis(ex[i], ey[i], ez[i], wx[i], wy[i], wz[i], library_rotation(w2, half_dt));
+      if (w2 > max_series_w2) {
+        const Rotation r = library_rotation(w2, half_dt);
+        for (int h = 0; h < Halves; ++h) rotate_axis(ex[i], ey[i], ez[i], wx[i], wy[i], wz[i], r);
+      }
     }
   }
   return largest;
@@ -119,8 +138,14 @@ double drift(Particles &p, long n, double arm, double half_dt) {
 
 double half_step(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
   const long n = static_cast<long>(count);
-  return shape.is_sphere() ? drift<false>(p, n, 0.0, half_dt)
-                           : drift<true>(p, n, shape.half_length(), half_dt);
+  return shape.is_sphere() ? drift<false, 1>(p, n, 0.0, half_dt)
+                           : drift<true, 1>(p, n, shape.half_length(), half_dt);
+}
+
+double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
+  const long n = static_cast<long>(count);
+  return shape.is_sphere() ? drift<false, 2>(p, n, 0.0, half_dt)
+                           : drift<true, 2>(p, n, shape.half_length(), half_dt);
 }
 
 void restore_rotor_constraints(Particles &p, std::size_t count) {

@@ -452,9 +452,26 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
     auto on_schedule = [&](long long step) {
       return (step - scene.equilibration_steps) % scene.sample_interval == 0;
     };
+    // Steps run in bursts up to the next one after which something reads the state (a
+    // frame, a Fourier sample, a sample, a checkpoint, a log line), at most kBurst long so
+    // that a signal is seen promptly; Simulation::advance fuses the half steps in between.
+    constexpr long long kBurst = 64;
+    auto steps_to = [&](long long interval, long long origin) {
+      if (interval <= 0) return kBurst;
+      // The next step s with (s - origin) a multiple of interval, either side of origin.
+      const long long into = ((sim.current_step() - origin) % interval + interval) % interval;
+      return interval - into;
+    };
     while (sim.current_step() < total_steps) {
+      long long burst = std::min({steps_to(kBurst, 0), total_steps - sim.current_step(),
+                                  steps_to(scene.snapshot_interval, 0),
+                                  steps_to(scene.sample_interval, scene.equilibration_steps),
+                                  steps_to(scene.checkpoint_interval, 0)});
+      if (scene.frank) burst = std::min(burst, steps_to(fourier_every, scene.equilibration_steps));
+      if (!quiet && !live) burst = std::min(burst, steps_to(log_every, 0));
+      if (options.verify) burst = 1;
       sim.request_stop(stop_signal() != 0);
-      sim.step();
+      sim.advance(std::max(1LL, burst));
       if (options.verify) sim.verify_bodies();
       const long long step = sim.current_step();
       if (scene.snapshot_interval > 0 && step % scene.snapshot_interval == 0) write_frame();

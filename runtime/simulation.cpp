@@ -165,16 +165,51 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
 
 void Simulation::fail(const std::string &message) { throw PhysicsError(message); }
 
-void Simulation::step() {
+void Simulation::step() { advance(1); }
+
+// Steps in a row: between two steps of one call nothing reads the state, so the second half
+// of a step and the first half of the next run as one pass over the bodies
+// (two_half_steps: the same bits as two passes), except where the rotor constraints or the
+// thermostat act between them, or a stop was agreed.
+void Simulation::advance(long long count) {
   const double half_dt = 0.5 * scene_.dt;
   const Shape &shape = scene_.shape;
-
   double largest_bound = 0.0;
-  {  // 1. first half: free flight to the midpoint, owned bodies and shadows alike
-    ScopedRegion r(timers_, Region::kIntegrate);
-    largest_bound = half_step(particles_, active_, shape, half_dt);
+  bool at_midpoint = false;  // the first half of this step is done already
+  for (long long k = 0; k < count; ++k) {
+    if (!at_midpoint) {  // 1. first half: free flight to the midpoint, owned bodies and shadows
+      ScopedRegion r(timers_, Region::kIntegrate);
+      largest_bound = half_step(particles_, active_, shape, half_dt);
+    }
+    midpoint(largest_bound);  // 2.-3. contacts and impulses
+    ++step_;
+    const bool constrain = step_ % kConstraintInterval == 0;
+    const bool thermostat =
+        scene_.thermostat_interval > 0 && step_ % scene_.thermostat_interval == 0;
+    at_midpoint = k + 1 < count && !constrain && !thermostat && !stop_agreed_;
+    {  // 4. second half, and with it the next step's first half where nothing acts between
+      ScopedRegion r(timers_, Region::kIntegrate);
+      if (at_midpoint)
+        largest_bound = two_half_steps(particles_, active_, shape, half_dt);
+      else
+        half_step(particles_, active_, shape, half_dt);
+    }
+    if (constrain) {
+      ScopedRegion r(timers_, Region::kIntegrate);
+      restore_rotor_constraints(particles_, active_);
+    }
+    if (thermostat) {
+      ScopedRegion r(timers_, Region::kThermostat);
+      apply_thermostat();
+    }
+    if (stop_agreed_) return;
   }
+}
 
+// The middle of a step, with the bodies at its midpoint: contacts, the step's agreement, a
+// rebuild if the list expired, impulses, and the step's tallies.
+void Simulation::midpoint(double largest_bound) {
+  const Shape &shape = scene_.shape;
   // 2. contacts at the midpoint, found before the step's one reduction so that it can also
   // tell every rank whether any contact touches a rank boundary this step. A rank whose own
   // bounds already expire the list skips this: it knows a rebuild follows.
@@ -219,12 +254,6 @@ void Simulation::step() {
         interval_.multi_contact_bodies += clusters.bodies[b] < owned_ && clusters.degree[b] > 1;
     }
   }
-  {  // 4. second half
-    ScopedRegion r(timers_, Region::kIntegrate);
-    half_step(particles_, active_, shape, half_dt);
-  }
-  ++step_;
-
   const CollisionTally tally = tally_collisions(contacts_, counted);
   interval_.steps += 1;
   interval_.collisions += tally.collisions;
@@ -237,15 +266,6 @@ void Simulation::step() {
   interval_.solver_unconverged += resolved.unconverged;
   interval_.max_depth = std::max(interval_.max_depth, detected.max_depth);
   interval_.solver_energy_change.add(resolved.energy_change);
-
-  if (step_ % kConstraintInterval == 0) {
-    ScopedRegion r(timers_, Region::kIntegrate);
-    restore_rotor_constraints(particles_, active_);
-  }
-  if (scene_.thermostat_interval > 0 && step_ % scene_.thermostat_interval == 0) {
-    ScopedRegion r(timers_, Region::kThermostat);
-    apply_thermostat();
-  }
 }
 
 // One max-reduction per step: whether any rank's pair list expired, whether any rank has a

@@ -87,6 +87,9 @@ class Simulation {
              long long first_step = 0);
 
   void step();
+  // `count` steps, bit for bit the same as `count` calls of step() but faster (two half
+  // steps fused into one pass between steps); returns early after a step that agreed to stop.
+  void advance(long long count);
 
   const Scene &scene() const { return scene_; }
   // Bodies held by this rank: [0, owned_count()) owned, the rest shadows.
@@ -155,6 +158,7 @@ class Simulation {
 
   void configure(Particles all, ParallelOptions parallel);
   Agreement agree(double largest_bound, bool boundary);
+  void midpoint(double largest_bound);
   void rebuild();
   DetectionStats detect();
   bool touches_boundary() const;
