@@ -13,7 +13,9 @@
 #include <map>
 #include <memory>
 
+#include "kernels/contact_detection.hpp"
 #include "kernels/integrator.hpp"
+#include "kernels/neighbor_list.hpp"
 #include "runtime/simulation.hpp"
 
 namespace hardrod {
@@ -62,7 +64,7 @@ void add_region_counters(benchmark::State &state, const RegionTimers &before,
 void BM_TimeStep(benchmark::State &state) {
   const int halvings = static_cast<int>(state.range(0));
   const double dt = 1e-6 * static_cast<double>(state.range(1));
-  omp_set_num_threads(1);
+  omp_set_num_threads(static_cast<int>(state.range(2)));
   Simulation sim(nematic_scene(halvings, dt), relaxed_bodies(halvings));
   for (int k = 0; k < 20; ++k) sim.step();  // build the neighbour list outside the timing
   sim.take_interval();
@@ -88,11 +90,13 @@ void BM_TimeStep(benchmark::State &state) {
   state.SetItemsProcessed(static_cast<long long>(particle_steps));
 }
 BENCHMARK(BM_TimeStep)
-    ->ArgNames({"halvings", "dt_1e-6"})
-    ->Args({0, 2})
-    ->Args({0, 100})
-    ->Args({1, 2})
-    ->Args({1, 100})
+    ->ArgNames({"halvings", "dt_1e-6", "threads"})
+    ->Args({0, 2, 1})
+    ->Args({0, 100, 1})
+    ->Args({1, 2, 1})
+    ->Args({1, 100, 1})
+    ->Args({0, 2, 2})  // two threads: the ratio to the first line is the kernel's scaling
+    ->UseRealTime()
     ->Unit(benchmark::kMicrosecond);
 
 // The floor: both half steps of free flight and nothing else (separate passes; see
@@ -114,11 +118,43 @@ void BM_IntegrateOnly(benchmark::State &state) {
 }
 BENCHMARK(BM_IntegrateOnly)->ArgNames({"halvings"})->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
+// The pair filter and narrow phase alone, on bodies that do not move between calls: every
+// motion bound set to a mid-lifetime value (a quarter of the skin), so the filter reads the
+// whole list each call and the narrow phase runs where the slack is used up. Against
+// BM_TimeStep's detect_ns at the same thread count it shows what the interleaving with
+// the integration costs (cache lines of bounds written on one core and read on the other).
+void BM_DetectOnly(benchmark::State &state) {
+  const int halvings = static_cast<int>(state.range(0));
+  omp_set_num_threads(static_cast<int>(state.range(1)));
+  Particles p = relaxed_bodies(halvings);
+  const Scene scene = nematic_scene(halvings, 2e-6);
+  NeighborList list;
+  list.skin = scene.skin;
+  build_neighbor_list(list, p, p.size(), scene.box, scene.shape);
+  std::fill(p.motion_bound.begin(), p.motion_bound.end(), 0.25 * scene.skin);
+  std::vector<Contact> contacts;
+  detect_contacts(p, scene.box, scene.shape, list, contacts);  // settle the slacks
+  for (auto _ : state) {
+    detect_contacts(p, scene.box, scene.shape, list, contacts);
+    benchmark::DoNotOptimize(contacts.data());
+  }
+  const double particle_steps = static_cast<double>(p.size()) * state.iterations();
+  state.counters["ns_per_particle_step"] = benchmark::Counter(
+      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["pairs_per_rod"] = static_cast<double>(list.pair_count()) / p.size();
+  state.SetItemsProcessed(static_cast<long long>(particle_steps));
+}
+BENCHMARK(BM_DetectOnly)
+    ->ArgNames({"halvings", "threads"})
+    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
+
 // The floor of a run of steps: the second half of one step and the first half of the next
 // in one pass (Simulation::advance between samples).
 void BM_IntegrateFused(benchmark::State &state) {
   const int halvings = static_cast<int>(state.range(0));
-  omp_set_num_threads(1);
+  omp_set_num_threads(static_cast<int>(state.range(1)));
   Particles p = relaxed_bodies(halvings);
   const Scene scene = nematic_scene(halvings, 2e-6);
   for (auto _ : state) {
@@ -130,7 +166,11 @@ void BM_IntegrateFused(benchmark::State &state) {
       particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.SetItemsProcessed(static_cast<long long>(particle_steps));
 }
-BENCHMARK(BM_IntegrateFused)->ArgNames({"halvings"})->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_IntegrateFused)
+    ->ArgNames({"halvings", "threads"})
+    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace hardrod
