@@ -49,8 +49,9 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
   const double *bound = p.motion_bound.data();
   const Vec3 inverse = box.inverse_length();
 
-  // Small lists are not worth a parallel region (its cost is microseconds).
-#pragma omp parallel reduction(+ : tests) reduction(max : max_depth) if (npairs > 8192)
+  // Threaded exactly when the integration is (kParallelBodies, particles.hpp).
+  const bool threaded = static_cast<long>(list.active) > kParallelBodies;
+#pragma omp parallel reduction(+ : tests) reduction(max : max_depth) if (threaded)
   {
     auto &mine = found[omp_get_thread_num()];
 #pragma omp for schedule(static)

@@ -11,9 +11,6 @@ namespace {
 // library sin and cos in a scalar pass.
 constexpr double kSeriesAngle = 0.1;
 
-// Below this many bodies a parallel region costs more than it saves.
-constexpr long kParallelBodies = 2048;
-
 // sin(a)/a and (1 - cos a)/a^2 as polynomials in a^2: only + and *, so vector lanes and
 // scalar code give identical bits, and there is no division by |w|.
 inline double sinc_series(double a2) {
