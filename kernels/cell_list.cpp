@@ -7,8 +7,6 @@ namespace hardrod {
 
 namespace {
 
-int wrap_index(int c, int n) { return ((c % n) + n) % n; }
-
 // Offsets along one axis that reach distinct cells: -k..k when the axis has 2k + 1 cells
 // or more; otherwise every cell once (offsets 0 .. cells - 1).
 std::vector<int> axis_offsets(int cells, int k) {
@@ -27,11 +25,6 @@ int cell_coordinate(double c, double side, int cells) {
 }
 
 }  // namespace
-
-int CellList::neighbour(int cx, int cy, int cz, const std::array<int, 3> &o) const {
-  return cell_index(wrap_index(cx + o[0], cells[0]), wrap_index(cy + o[1], cells[1]),
-                    wrap_index(cz + o[2], cells[2]));
-}
 
 void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
                      double reach) {

@@ -25,7 +25,12 @@ struct CellList {
   int cell_count() const { return cells[0] * cells[1] * cells[2]; }
   int cell_index(int cx, int cy, int cz) const { return (cz * cells[1] + cy) * cells[0] + cx; }
   // Cell of neighbour offset `o` from cell (cx, cy, cz), periodic.
-  int neighbour(int cx, int cy, int cz, const std::array<int, 3> &o) const;
+  // Stencil offsets stay within one box length (|o| < cells), so one add or subtract wraps.
+  int neighbour(int cx, int cy, int cz, const std::array<int, 3> &o) const {
+    const auto wrap = [](int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); };
+    return cell_index(wrap(cx + o[0], cells[0]), wrap(cy + o[1], cells[1]),
+                      wrap(cz + o[2], cells[2]));
+  }
 };
 
 void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
