@@ -601,7 +601,26 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   nlohmann::json timers;
   for (int r = 0; r < static_cast<int>(Region::kCount); ++r)
     timers[region_name(static_cast<Region>(r))] = sim.timers().seconds(static_cast<Region>(r));
-  summary["timers"] = timers;
+  summary["timers"] = timers;  // rank 0's
+  {  // the same over all ranks: the slowest rank and the mean, per region (load balance)
+    const int nregions = static_cast<int>(Region::kCount);
+    std::vector<double> mine(static_cast<std::size_t>(nregions));
+    std::vector<ExactSum> total(static_cast<std::size_t>(nregions));
+    for (int r = 0; r < nregions; ++r) {
+      mine[static_cast<std::size_t>(r)] = sim.timers().seconds(static_cast<Region>(r));
+      total[static_cast<std::size_t>(r)].add(mine[static_cast<std::size_t>(r)]);
+    }
+    const std::vector<double> slowest = comm.max("summary", mine);
+    total = comm.sum("summary", total);
+    nlohmann::json most, mean;
+    for (int r = 0; r < nregions; ++r) {
+      const char *name = region_name(static_cast<Region>(r));
+      most[name] = slowest[static_cast<std::size_t>(r)];
+      mean[name] = total[static_cast<std::size_t>(r)].value() / comm.size();
+    }
+    summary["timers_rank_max"] = most;
+    summary["timers_rank_mean"] = mean;
+  }
   nlohmann::json hw;
   hw["available"] = counters.available();
   if (counters.available())
