@@ -29,15 +29,14 @@ void keep_shadow_rings(NeighborList &list, Particles &p, std::size_t count, std:
     }
   std::vector<std::uint32_t> order(owned), where(count);
   for (std::uint32_t i = 0; i < owned; ++i) order[i] = where[i] = i;
-  for (int pass = 0; pass < 2; ++pass)
+  for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t i = owned; i < count; ++i)
       if ((ring[i] <= 2) == (pass == 0)) {
         where[i] = static_cast<std::uint32_t>(order.size());
         order.push_back(static_cast<std::uint32_t>(i));
       }
-  list.active = static_cast<std::size_t>(
-      owned + std::count_if(ring.begin() + static_cast<long>(owned), ring.end(),
-                            [](std::uint8_t r) { return r <= 2; }));
+    if (pass == 0) list.active = order.size();  // owned bodies and rings 1 and 2
+  }
   p.permute(order);
   std::size_t kept = 0;
   for (std::size_t k = 0; k < npairs; ++k) {

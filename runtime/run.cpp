@@ -455,6 +455,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
     // Steps run in bursts up to the next one after which something reads the state (a
     // frame, a Fourier sample, a sample, a checkpoint, a log line), at most kBurst long so
     // that a signal is seen promptly; Simulation::advance fuses the half steps in between.
+    // Every term is at least one step.
     constexpr long long kBurst = 64;
     auto steps_to = [&](long long interval, long long origin) {
       if (interval <= 0) return kBurst;
@@ -471,7 +472,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
       if (!quiet && !live) burst = std::min(burst, steps_to(log_every, 0));
       if (options.verify) burst = 1;
       sim.request_stop(stop_signal() != 0);
-      sim.advance(std::max(1LL, burst));
+      sim.advance(burst);
       if (options.verify) sim.verify_bodies();
       const long long step = sim.current_step();
       if (scene.snapshot_interval > 0 && step % scene.snapshot_interval == 0) write_frame();
@@ -598,26 +599,24 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
       {"placement", placements},
       {"state_checksum", sim.state_checksum()},
   };
-  nlohmann::json timers;
-  for (int r = 0; r < static_cast<int>(Region::kCount); ++r)
-    timers[region_name(static_cast<Region>(r))] = sim.timers().seconds(static_cast<Region>(r));
-  summary["timers"] = timers;  // rank 0's
-  {  // the same over all ranks: the slowest rank and the mean, per region (load balance)
-    const int nregions = static_cast<int>(Region::kCount);
-    std::vector<double> mine(static_cast<std::size_t>(nregions));
-    std::vector<ExactSum> total(static_cast<std::size_t>(nregions));
-    for (int r = 0; r < nregions; ++r) {
-      mine[static_cast<std::size_t>(r)] = sim.timers().seconds(static_cast<Region>(r));
-      total[static_cast<std::size_t>(r)].add(mine[static_cast<std::size_t>(r)]);
+  {  // region timers: rank 0's, and over all ranks the slowest and the mean (load balance)
+    const auto nregions = static_cast<std::size_t>(Region::kCount);
+    std::vector<double> mine(nregions);
+    std::vector<ExactSum> total(nregions);
+    for (std::size_t r = 0; r < nregions; ++r) {
+      mine[r] = sim.timers().seconds(static_cast<Region>(r));
+      total[r].add(mine[r]);
     }
     const std::vector<double> slowest = comm.max("summary", mine);
     total = comm.sum("summary", total);
-    nlohmann::json most, mean;
-    for (int r = 0; r < nregions; ++r) {
+    nlohmann::json timers, most, mean;
+    for (std::size_t r = 0; r < nregions; ++r) {
       const char *name = region_name(static_cast<Region>(r));
-      most[name] = slowest[static_cast<std::size_t>(r)];
-      mean[name] = total[static_cast<std::size_t>(r)].value() / comm.size();
+      timers[name] = mine[r];
+      most[name] = slowest[r];
+      mean[name] = total[r].value() / comm.size();
     }
+    summary["timers"] = timers;
     summary["timers_rank_max"] = most;
     summary["timers_rank_mean"] = mean;
   }

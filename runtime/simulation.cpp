@@ -160,7 +160,7 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
       (*dst)[k] = (*src)[i];
   }
   particles_ = std::move(mine);
-  owned_ = active_ = particles_.size();
+  owned_ = particles_.size();
 }
 
 void Simulation::fail(const std::string &message) { throw PhysicsError(message); }
@@ -179,7 +179,7 @@ void Simulation::advance(long long count) {
   for (long long k = 0; k < count; ++k) {
     if (!at_midpoint) {  // 1. first half: free flight to the midpoint, owned bodies and shadows
       ScopedRegion r(timers_, Region::kIntegrate);
-      largest_bound = half_step(particles_, active_, shape, half_dt);
+      largest_bound = half_step(particles_, advanced(), shape, half_dt);
     }
     midpoint(largest_bound);  // 2.-3. contacts and impulses
     ++step_;
@@ -190,13 +190,13 @@ void Simulation::advance(long long count) {
     {  // 4. second half, and with it the next step's first half where nothing acts between
       ScopedRegion r(timers_, Region::kIntegrate);
       if (at_midpoint)
-        largest_bound = two_half_steps(particles_, active_, shape, half_dt);
+        largest_bound = two_half_steps(particles_, advanced(), shape, half_dt);
       else
-        half_step(particles_, active_, shape, half_dt);
+        half_step(particles_, advanced(), shape, half_dt);
     }
     if (constrain) {
       ScopedRegion r(timers_, Region::kIntegrate);
-      restore_rotor_constraints(particles_, active_);
+      restore_rotor_constraints(particles_, advanced());
     }
     if (thermostat) {
       ScopedRegion r(timers_, Region::kThermostat);
@@ -291,7 +291,6 @@ void Simulation::rebuild() {
   ScopedRegion r(timers_, Region::kNeighborBuild);
   if (comm_.size() > 1) redistribute();
   build_neighbor_list(list_, particles_, particles_.size(), owned_, scene_.box, scene_.shape);
-  active_ = list_.active;
   index_bodies();
 }
 
@@ -631,7 +630,7 @@ void Simulation::verify_bodies() {
   std::unordered_map<std::int64_t, std::size_t> where;
   for (std::size_t i = 0; i < reference.size(); ++i) where[reference.id[i]] = i;
   long long mismatches = 0;
-  for (std::size_t i = owned_; i < active_; ++i) {  // the shadows this rank advances
+  for (std::size_t i = owned_; i < advanced(); ++i) {  // the shadows this rank advances
     const auto it = where.find(particles_.id[i]);
     if (it == where.end()) {
       ++mismatches;

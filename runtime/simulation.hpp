@@ -159,6 +159,9 @@ class Simulation {
   void configure(Particles all, ParallelOptions parallel);
   Agreement agree(double largest_bound, bool boundary);
   void midpoint(double largest_bound);
+  // Bodies [0, advanced()) are moved every step: the owned ones, and the shadows the pair list
+  // keeps (before the first build there are no shadows).
+  std::size_t advanced() const { return list_.builds == 0 ? owned_ : list_.active; }
   void rebuild();
   DetectionStats detect();
   bool touches_boundary() const;
@@ -177,7 +180,6 @@ class Simulation {
   Domain domain_;
   Particles particles_;
   std::size_t owned_ = 0;
-  std::size_t active_ = 0;  // [0, active_) advanced every step: owned bodies, listed shadows
   std::unordered_map<std::int64_t, Holding> holding_;      // by id, for every held body
   std::unordered_map<std::int64_t, std::uint32_t> index_;  // id -> local index
   std::vector<char> shared_;  // by local index: a shadow, or an owned body held elsewhere

@@ -60,6 +60,13 @@ void add_region_counters(benchmark::State &state, const RegionTimers &before,
   }
 }
 
+// ns per particle-step (wall time when the benchmark uses real time) and items per second.
+void report_particle_steps(benchmark::State &state, double particle_steps) {
+  state.counters["ns_per_particle_step"] = benchmark::Counter(
+      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.SetItemsProcessed(static_cast<long long>(particle_steps));
+}
+
 // Arguments: halvings (0 = paper's N = 18432, 1 = everyday N = 2304), dt in units of 1e-6.
 void BM_TimeStep(benchmark::State &state) {
   const int halvings = static_cast<int>(state.range(0));
@@ -80,14 +87,12 @@ void BM_TimeStep(benchmark::State &state) {
   const double particle_steps = n * static_cast<double>(steps);
   const IntervalTotals t = sim.take_interval();
   add_region_counters(state, before, sim.timers(), particle_steps);
-  state.counters["ns_per_particle_step"] = benchmark::Counter(
-      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  report_particle_steps(state, particle_steps);
   state.counters["us_per_rod_tau"] = benchmark::Counter(
       particle_steps * 1e-6 * dt, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["narrow_tests_per_step"] = static_cast<double>(t.narrow_phase_tests) / steps;
   state.counters["contacts_per_step"] = static_cast<double>(t.contacts) / steps;
   state.counters["pairs_per_rod"] = static_cast<double>(sim.neighbor_list().pair_count()) / n;
-  state.SetItemsProcessed(static_cast<long long>(particle_steps));
 }
 BENCHMARK(BM_TimeStep)
     ->ArgNames({"halvings", "dt_1e-6", "threads"})
@@ -112,9 +117,7 @@ void BM_IntegrateOnly(benchmark::State &state) {
     benchmark::ClobberMemory();
   }
   const double particle_steps = static_cast<double>(p.size()) * state.iterations();
-  state.counters["ns_per_particle_step"] = benchmark::Counter(
-      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.SetItemsProcessed(static_cast<long long>(particle_steps));
+  report_particle_steps(state, particle_steps);
 }
 BENCHMARK(BM_IntegrateOnly)->ArgNames({"halvings"})->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
@@ -139,10 +142,8 @@ void BM_DetectOnly(benchmark::State &state) {
     benchmark::DoNotOptimize(contacts.data());
   }
   const double particle_steps = static_cast<double>(p.size()) * state.iterations();
-  state.counters["ns_per_particle_step"] = benchmark::Counter(
-      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  report_particle_steps(state, particle_steps);
   state.counters["pairs_per_rod"] = static_cast<double>(list.pair_count()) / p.size();
-  state.SetItemsProcessed(static_cast<long long>(particle_steps));
 }
 BENCHMARK(BM_DetectOnly)
     ->ArgNames({"halvings", "threads"})
@@ -162,9 +163,7 @@ void BM_IntegrateFused(benchmark::State &state) {
     benchmark::ClobberMemory();
   }
   const double particle_steps = static_cast<double>(p.size()) * state.iterations();
-  state.counters["ns_per_particle_step"] = benchmark::Counter(
-      particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.SetItemsProcessed(static_cast<long long>(particle_steps));
+  report_particle_steps(state, particle_steps);
 }
 BENCHMARK(BM_IntegrateFused)
     ->ArgNames({"halvings", "threads"})
