@@ -3,7 +3,10 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 #include "kernels/segment_geometry.hpp"
 
@@ -36,42 +39,171 @@ bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const
   return true;
 }
 
+namespace {
+
+// Lower `target` to `value` if that is smaller. Several threads may lower one body's watch
+// in a step; the minimum does not depend on their order.
+void lower_to(double &target, double value) {
+  std::atomic_ref<double> t(target);
+  double now = t.load(std::memory_order_relaxed);
+  while (value < now && !t.compare_exchange_weak(now, value, std::memory_order_relaxed)) {
+  }
+}
+
+// The narrow phase of listed pair k (bodies at motion bounds summing to `moved`): a contact
+// if they overlap, and the pair's slack renewed from the distance measured.
+void measure(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+             NeighborList &list, std::size_t k, double moved, std::vector<Contact> &found,
+             double &max_depth) {
+  Contact c;
+  double d = 0.0;
+  ListedPair &pair = list.pairs[k];
+  if (make_contact(p, box, inverse, shape, pair.first, pair.second, c, d)) {
+    max_depth = std::max(max_depth, c.depth);
+    found.push_back(c);
+  }
+  pair.recheck_at = moved + (d - shape.diameter) - kDistanceSafetyMargin;
+}
+
+void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact> &contacts) {
+  contacts.clear();
+  for (auto &f : found) contacts.insert(contacts.end(), f.begin(), f.end());
+  std::sort(contacts.begin(), contacts.end(), canonical_less);
+}
+
+}  // namespace
+
+// Each thread takes one contiguous block of bodies (the list's body order is cell order, so
+// mostly its own pairs too) and makes three passes over it:
+//  1. flag the bodies whose motion bound reached their watch (a vector compare), and list
+//     them, skipping eight clear flags at a time;
+//  2. for each flagged body, its pairs: measure those whose bounds used up the slack, and
+//     split every visited pair's remaining slack between its two bodies. A pair of two
+//     flagged bodies is visited from its first body only, so each pair has one writer. An
+//     unflagged partner whose allowance shrank lowers its watch to it (atomic minimum);
+//  3. each flagged body's watch becomes its smallest allowance.
+// Pairs of two unflagged bodies are not read: their bounds sum to less than the slack
+// (arm_watches). The pairs measured, and so the slacks, are those of a pass over the
+// whole list (detect_contacts_all_pairs), for any thread count.
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
                                NeighborList &list, std::vector<Contact> &contacts) {
+  if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts);
+  const long n = static_cast<long>(list.active);
+  // Threaded exactly when the integration is (kParallelBodies, particles.hpp).
+  const int nthreads = n > kParallelBodies ? omp_get_max_threads() : 1;
+  std::vector<std::vector<Contact>> found(nthreads);
+  long long tests = 0;
+  double max_depth = 0.0;
+  ListedPair *pairs = list.pairs.data();
+  const std::uint32_t *start = list.pairs_start.data();
+  const std::uint32_t *index = list.pair_index.data();
+  const double *bound = p.motion_bound.data();
+  double *watch = list.watch.data();
+  list.flagged.resize(static_cast<std::size_t>(n) + 8);  // room for the last word's read
+  std::uint8_t *flagged = list.flagged.data();
+  const Vec3 inverse = box.inverse_length();
+  std::vector<long> ends(nthreads);  // pair ends of each thread's flagged bodies
+  bool watching = true;
+
+#pragma omp parallel num_threads(nthreads) reduction(+ : tests) reduction(max : max_depth)
+  {
+    const int tid = omp_get_thread_num();
+    // Blocks of whole 8-byte words of flags, so that no two threads write one word.
+    const long words = (n + 7) / 8;
+    const long lo = std::min(n, 8 * (words * tid / nthreads));
+    const long hi = std::min(n, 8 * (words * (tid + 1) / nthreads));
+    std::vector<Contact> &mine = found[tid];
+    std::vector<std::uint32_t> raised;  // this block's flagged bodies
+
+#pragma omp simd
+    for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
+    for (long w = lo; w < hi; w += 8) {
+      std::uint64_t word;
+      std::memcpy(&word, flagged + w, sizeof word);
+      if (word == 0) continue;
+      for (long i = w; i < std::min(hi, w + 8); ++i)
+        if (flagged[i]) {
+          raised.push_back(static_cast<std::uint32_t>(i));
+          ends[tid] += start[i + 1] - start[i];
+        }
+    }
+#pragma omp barrier
+    // Every thread takes the same decision from the same sum (no further barrier).
+    long all_ends = 0;
+    for (const long e : ends) all_ends += e;
+    if (list.watched_share * all_ends > 2 * static_cast<long>(list.pair_count())) {
+      raised.clear();
+      if (tid == 0) watching = false;
+    }
+    // The pairs' records are scattered through the list: ask for all of them first.
+    for (const std::uint32_t i : raised)
+      for (std::uint32_t a = start[i]; a < start[i + 1]; ++a)
+        __builtin_prefetch(&pairs[index[a]], 1);
+    for (const std::uint32_t i : raised) {
+      for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
+        const std::uint32_t k = index[a];
+        ListedPair &pair = pairs[k];
+        const std::uint32_t f = pair.first, s = pair.second;
+        if (s == i && flagged[f]) continue;  // visited from its first body
+        const double moved = bound[f] + bound[s];
+        if (moved >= pair.recheck_at) {  // the slack is used up: measure
+          ++tests;
+          measure(p, box, inverse, shape, list, k, moved, mine, max_depth);
+        }
+        // The rest of the slack in proportion to the bounds so far: bounds grow about
+        // linearly, so both bodies then reach their allowances about when the pair's
+        // slack is used up (evenly while both bounds are 0).
+        const double rest = pair.recheck_at - moved;
+        pair.allowance_first =
+            bound[f] + (moved > 0.0 && rest > 0.0 ? rest * (bound[f] / moved) : 0.5 * rest);
+        const std::uint32_t other = f == i ? s : f;
+        if (!flagged[other]) {
+          if (nthreads > 1)
+            lower_to(watch[other], pair.allowance(other));
+          else  // the same minimum without the atomic's fence
+            watch[other] = std::min(watch[other], pair.allowance(other));
+        }
+      }
+    }
+#pragma omp barrier
+    for (const std::uint32_t i : raised) {
+      double w = std::numeric_limits<double>::infinity();
+      for (std::uint32_t a = start[i]; a < start[i + 1]; ++a)
+        w = std::min(w, pairs[index[a]].allowance(i));
+      watch[i] = w;
+    }
+  }
+  if (!watching) {
+    list.watching = false;
+    return detect_contacts_all_pairs(p, box, shape, list, contacts);
+  }
+  merge_sorted(found, contacts);
+  return {tests, max_depth};
+}
+
+DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
+                                         NeighborList &list, std::vector<Contact> &contacts) {
   const int nthreads = omp_get_max_threads();
   std::vector<std::vector<Contact>> found(nthreads);
   long long tests = 0;
   double max_depth = 0.0;
   const std::size_t npairs = list.pair_count();
-  const std::uint32_t *first = list.first.data();
-  const std::uint32_t *second = list.second.data();
-  double *recheck_at = list.recheck_at.data();
   const double *bound = p.motion_bound.data();
   const Vec3 inverse = box.inverse_length();
-
-  // Threaded exactly when the integration is (kParallelBodies, particles.hpp).
-  const bool threaded = static_cast<long>(list.active) > kParallelBodies;
-#pragma omp parallel reduction(+ : tests) reduction(max : max_depth) if (threaded)
+#pragma omp parallel reduction(+ : tests) reduction(max : max_depth) \
+    if (static_cast<long>(list.active) > kParallelBodies)
   {
     auto &mine = found[omp_get_thread_num()];
 #pragma omp for schedule(static)
     for (std::size_t k = 0; k < npairs; ++k) {
-      const double moved = bound[first[k]] + bound[second[k]];
-      if (moved < recheck_at[k]) continue;  // cannot have closed its gap yet
+      const ListedPair &pair = list.pairs[k];
+      const double moved = bound[pair.first] + bound[pair.second];
+      if (moved < pair.recheck_at) continue;  // cannot have closed its gap yet
       ++tests;
-      Contact c;
-      double d = 0.0;
-      if (make_contact(p, box, inverse, shape, first[k], second[k], c, d)) {
-        max_depth = std::max(max_depth, c.depth);
-        mine.push_back(c);
-      }
-      recheck_at[k] = moved + (d - shape.diameter) - kDistanceSafetyMargin;
+      measure(p, box, inverse, shape, list, k, moved, mine, max_depth);
     }
   }
-
-  contacts.clear();
-  for (auto &f : found) contacts.insert(contacts.end(), f.begin(), f.end());
-  std::sort(contacts.begin(), contacts.end(), canonical_less);
+  merge_sorted(found, contacts);
   return {tests, max_depth};
 }
 

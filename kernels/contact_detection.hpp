@@ -2,8 +2,9 @@
 // A listed pair is measured (segment_closest) only when the motion bounds of its bodies
 // have used up its recorded slack; then its slack is renewed. Every pair with axis distance
 // < D becomes a Contact, in canonical order. Reads positions, axes, motion bounds; writes
-// the list's slacks and the contacts. Threads split the pairs; per-thread contact blocks
-// are merged and sorted, so the result does not depend on the thread count.
+// the list's slacks and watches and the contacts. Only the pairs of bodies whose bound
+// reached their watch are read (neighbor_list.hpp). Threads split the bodies; per-thread
+// contact blocks are merged and sorted, so the result does not depend on the thread count.
 #pragma once
 
 #include <vector>
@@ -23,6 +24,12 @@ struct DetectionStats {
 
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
                                NeighborList &list, std::vector<Contact> &contacts);
+
+// The reference: the same filter as a pass over every listed pair (how the watches must
+// behave, and what they save). It renews slacks but not allowances: a list it has used is
+// not fit for detect_contacts until arm_watches.
+DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
+                                         NeighborList &list, std::vector<Contact> &contacts);
 
 // Fill the geometric fields of a contact between bodies a and b (any order; the result is
 // canonical). Returns false when the pair does not overlap (distance >= D). `inverse` is

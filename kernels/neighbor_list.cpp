@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <limits>
 
 #include "kernels/segment_geometry.hpp"
 
@@ -23,7 +24,7 @@ void keep_shadow_rings(NeighborList &list, Particles &p, std::size_t count, std:
   const std::size_t npairs = list.pair_count();
   for (int r = 1; r <= 2; ++r)
     for (std::size_t k = 0; k < npairs; ++k) {
-      const std::uint32_t a = list.first[k], b = list.second[k];
+      const std::uint32_t a = list.pairs[k].first, b = list.pairs[k].second;
       if (ring[a] == r - 1 && ring[b] > r) ring[b] = static_cast<std::uint8_t>(r);
       if (ring[b] == r - 1 && ring[a] > r) ring[a] = static_cast<std::uint8_t>(r);
     }
@@ -40,16 +41,13 @@ void keep_shadow_rings(NeighborList &list, Particles &p, std::size_t count, std:
   p.permute(order);
   std::size_t kept = 0;
   for (std::size_t k = 0; k < npairs; ++k) {
-    const std::uint32_t a = list.first[k], b = list.second[k];
-    if (std::min(ring[a], ring[b]) > 1) continue;
-    list.first[kept] = where[a];
-    list.second[kept] = where[b];
-    list.recheck_at[kept] = list.recheck_at[k];
-    ++kept;
+    ListedPair pair = list.pairs[k];
+    if (std::min(ring[pair.first], ring[pair.second]) > 1) continue;
+    pair.first = where[pair.first];
+    pair.second = where[pair.second];
+    list.pairs[kept++] = pair;
   }
-  list.first.resize(kept);
-  list.second.resize(kept);
-  list.recheck_at.resize(kept);
+  list.pairs.resize(kept);
 }
 
 }  // namespace
@@ -82,15 +80,12 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   const double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
 
   const int nthreads = omp_get_max_threads();
-  std::vector<std::vector<std::uint32_t>> first(nthreads), second(nthreads);
-  std::vector<std::vector<double>> recheck(nthreads);
+  std::vector<std::vector<ListedPair>> found(nthreads);
 
 #pragma omp parallel
   {
     const int tid = omp_get_thread_num();
-    auto &f = first[tid];
-    auto &s = second[tid];
-    auto &r = recheck[tid];
+    auto &mine = found[tid];
     std::vector<std::uint32_t> near;  // candidates whose centres are within reach
     // Contiguous blocks of cells per thread, concatenated in thread order: the list comes out
     // in cell order, which is body order. So the per-step passes, split statically over
@@ -136,28 +131,50 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
             const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
             const double d = std::sqrt(sc.dist2);
             if (d >= reach) continue;
-            f.push_back(i);
-            s.push_back(j);
-            r.push_back(d - shape.diameter - kDistanceSafetyMargin);
+            mine.push_back({i, j, d - shape.diameter - kDistanceSafetyMargin, 0.0});
           }
         }
       }
     }
   }
 
-  list.first.clear();
-  list.second.clear();
-  list.recheck_at.clear();
-  for (int t = 0; t < nthreads; ++t) {
-    list.first.insert(list.first.end(), first[t].begin(), first[t].end());
-    list.second.insert(list.second.end(), second[t].begin(), second[t].end());
-    list.recheck_at.insert(list.recheck_at.end(), recheck[t].begin(), recheck[t].end());
-  }
+  list.pairs.clear();
+  for (const auto &f : found) list.pairs.insert(list.pairs.end(), f.begin(), f.end());
   list.active = count;
   if (count > owned) keep_shadow_rings(list, p, count, owned);
+  arm_watches(list);
   std::fill(p.motion_bound.begin(), p.motion_bound.begin() + static_cast<long>(count), 0.0);
   list.bodies = count;
   ++list.builds;
+}
+
+void arm_watches(NeighborList &list) {
+  const std::size_t npairs = list.pair_count();
+  const std::size_t n = list.active;
+  for (ListedPair &pair : list.pairs) pair.allowance_first = 0.5 * pair.recheck_at;
+  // Counting sort of the pair ends by body: each body's pairs in list order.
+  list.pairs_start.assign(n + 1, 0);
+  for (std::size_t k = 0; k < npairs; ++k) {
+    ++list.pairs_start[list.pairs[k].first + 1];
+    ++list.pairs_start[list.pairs[k].second + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) list.pairs_start[i + 1] += list.pairs_start[i];
+  list.pair_index.resize(2 * npairs);
+  std::vector<std::uint32_t> next(list.pairs_start.begin(), list.pairs_start.end() - 1);
+  for (std::size_t k = 0; k < npairs; ++k) {
+    list.pair_index[next[list.pairs[k].first]++] = static_cast<std::uint32_t>(k);
+    list.pair_index[next[list.pairs[k].second]++] = static_cast<std::uint32_t>(k);
+  }
+  list.watch.resize(n);
+  list.flagged.assign(n, 0);
+  list.watching = true;
+#pragma omp parallel for schedule(static) if (static_cast <long>(n) > kParallelBodies)
+  for (std::size_t i = 0; i < n; ++i) {
+    double w = std::numeric_limits<double>::infinity();
+    for (std::uint32_t a = list.pairs_start[i]; a < list.pairs_start[i + 1]; ++a)
+      w = std::min(w, list.pairs[list.pair_index[a]].allowance(static_cast<std::uint32_t>(i)));
+    list.watch[i] = w;
+  }
 }
 
 double largest_motion_bound(const Particles &p, std::size_t count) {

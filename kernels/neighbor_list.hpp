@@ -5,6 +5,13 @@
 // bounds, so a pair needs the narrow phase only when that sum reaches its recorded slack.
 // Pairs not listed cannot touch while the two largest bounds sum to less than the skin.
 // The set of contacts found is therefore exactly the brute-force set, whatever the skin.
+//
+// Watches: so that a step need not read every pair, each pair's slack is split into two
+// allowances, one per body, and each body watches the smallest of its allowances. While
+// neither body's bound has reached its watch, the sum of the bounds is below the slack and
+// the pair is not read at all. A step reads the bodies' bounds and watches, and only the
+// pairs of bodies whose bound reached their watch (contact_detection.cpp): it measures the
+// same pairs as a pass over the whole list would, in far fewer reads.
 // Threading: the build is split over cells; per-thread pair blocks are concatenated.
 #pragma once
 
@@ -22,11 +29,47 @@ namespace hardrod {
 // of the segment distance and of the accumulated motion bounds, many orders above both.
 inline constexpr double kDistanceSafetyMargin = 1e-9;
 
+// Taken off the second body's allowance of a pair (in D), so that two bounds each below its
+// allowance also sum, after rounding, to less than the slack (bounds and slacks are < 10 D,
+// where a rounding is < 2e-15).
+inline constexpr double kAllowanceCushion = 1e-12;
+
+// A pair read through the watches costs ~20x a pair in a pass over the whole list (scattered
+// reads and branches against a stream): past 1/16 of the pair ends, the pass is cheaper.
+inline constexpr long kWatchedShare = 16;
+
+// One listed pair, in one record so that a step visiting a few pairs reads one cache line
+// for each (the fields are read and written together).
+struct ListedPair {
+  std::uint32_t first = 0, second = 0;  // local indices
+  // Narrow phase needed once motion_bound[first] + motion_bound[second] >= recheck_at.
+  double recheck_at = 0.0;
+  // The first body's share of the slack (its allowance); the second body's allowance is
+  // recheck_at - allowance_first - kAllowanceCushion.
+  double allowance_first = 0.0;
+
+  double second_allowance() const { return recheck_at - allowance_first - kAllowanceCushion; }
+  // Body b's allowance (b is first or second).
+  double allowance(std::uint32_t b) const {
+    return b == first ? allowance_first : second_allowance();
+  }
+};
+
 struct NeighborList {
   double skin = 0.3;
-  std::vector<std::uint32_t> first, second;  // pair (first[k], second[k]), local indices
-  // Narrow phase needed once motion_bound[first] + motion_bound[second] >= recheck_at.
-  std::vector<double> recheck_at;
+  std::vector<ListedPair> pairs;
+  // The pairs of body i, by index: pair_index[pairs_start[i] .. pairs_start[i + 1]).
+  std::vector<std::uint32_t> pairs_start, pair_index;
+  // Body i's pairs need a look once motion_bound[i] >= watch[i], the smallest allowance of
+  // body i over its pairs (+infinity without pairs). [0, active).
+  std::vector<double> watch;
+  std::vector<std::uint8_t> flagged;  // scratch of the detection: bound reached the watch
+  // True from a build until the first step at which the flagged bodies have more than
+  // 1/watched_share of the list's pair ends; from then until the next build, the steps pass
+  // over every pair (detect_contacts) and the watches are not kept. watched_share = 1
+  // keeps the watches whatever the cost (tests, benchmarks).
+  bool watching = false;
+  long watched_share = kWatchedShare;
   CellList cells;
   long long builds = 0;
   std::size_t bodies = 0;  // body count the list was built for
@@ -34,8 +77,13 @@ struct NeighborList {
   // these. The rest are shadows no listed pair involves (see build_neighbor_list).
   std::size_t active = 0;
 
-  std::size_t pair_count() const { return first.size(); }
+  std::size_t pair_count() const { return pairs.size(); }
 };
+
+// Split every pair's slack evenly between its two bodies (at zero bounds, as after a
+// build), index the pairs by body and set the watches. build_neighbor_list calls it; a test
+// that edits the slacks calls it again.
+void arm_watches(NeighborList &list);
 
 // Rebuild the list over bodies [0, count) and reset their motion bounds to zero. Sorts
 // the bodies by cell, owned ones [0, owned) and shadows [owned, count) separately, so the

@@ -75,26 +75,44 @@ TEST_P(DetectionMatchesBruteForce, OverManySteps) {
   box.length = {2.2 * (c.length + 1.0) + 3.0, 2.5 * (c.length + 1.0) + 2.0,
                 2.1 * (c.length + 1.0) + 4.0};
   const std::size_t n = static_cast<std::size_t>(0.25 * box.volume() / shape.volume());
-  Particles p = random_gas(n, box, 42 + static_cast<int>(c.length), c.aligned);
-  NeighborList list;
-  list.skin = c.skin;
-  std::vector<Contact> contacts;
   omp_set_num_threads(c.threads);
-  long long total_contacts = 0;
-  for (int step = 0; step < 60; ++step) {
-    // Large moves: many rebuilds and re-checks; centres leave the box (never folded).
-    half_step(p, n, shape, 0.01);
-    if (neighbor_list_expired(list, largest_motion_bound(p, n), n))
-      build_neighbor_list(list, p, n, box, shape);
-    detect_contacts(p, box, shape, list, contacts);
-    ASSERT_TRUE(std::is_sorted(contacts.begin(), contacts.end(), canonical_less));
-    const PairSet expected = brute_force(p, box, shape);
-    ASSERT_EQ(as_set(contacts), expected) << "step " << step;
-    total_contacts += static_cast<long long>(contacts.size());
+  // With the watches kept through every step, and with the switch to the full pass.
+  for (const long share : {1L, kWatchedShare}) {
+    SCOPED_TRACE("watched_share " + std::to_string(share));
+    Particles p = random_gas(n, box, 42 + static_cast<int>(c.length), c.aligned);
+    NeighborList list;
+    list.skin = c.skin;
+    list.watched_share = share;
+    std::vector<Contact> contacts, reference;
+    long long total_contacts = 0, tests = 0, watched_steps = 0;
+    NeighborList all;  // the same list, filtered by a pass over every pair
+    for (int step = 0; step < 60; ++step) {
+      // Large moves: many rebuilds and re-checks; centres leave the box (never folded).
+      half_step(p, n, shape, 0.01);
+      if (neighbor_list_expired(list, largest_motion_bound(p, n), n)) {
+        build_neighbor_list(list, p, n, box, shape);
+        all = list;
+      }
+      const DetectionStats watched = detect_contacts(p, box, shape, list, contacts);
+      watched_steps += list.watching;
+      ASSERT_TRUE(std::is_sorted(contacts.begin(), contacts.end(), canonical_less));
+      const PairSet expected = brute_force(p, box, shape);
+      ASSERT_EQ(as_set(contacts), expected) << "step " << step;
+      total_contacts += static_cast<long long>(contacts.size());
+      // The watches measure exactly the pairs the full pass measures, to the bit.
+      const DetectionStats full = detect_contacts_all_pairs(p, box, shape, all, reference);
+      ASSERT_EQ(watched.narrow_phase_tests, full.narrow_phase_tests) << "step " << step;
+      for (std::size_t k = 0; k < list.pair_count(); ++k)
+        ASSERT_EQ(list.pairs[k].recheck_at, all.pairs[k].recheck_at) << "step " << step;
+      ASSERT_EQ(as_set(reference), expected) << "step " << step;
+      tests += watched.narrow_phase_tests;
+    }
+    EXPECT_GT(total_contacts, 20) << "the test must exercise real contacts";
+    EXPECT_GT(list.builds, 1) << "the test must exercise list rebuilds";
+    EXPECT_GT(tests, 100) << "the test must exercise re-checks";
+    if (share == 1) EXPECT_EQ(watched_steps, 60);
   }
   omp_set_num_threads(1);
-  EXPECT_GT(total_contacts, 20) << "the test must exercise real contacts";
-  EXPECT_GT(list.builds, 1) << "the test must exercise list rebuilds";
 }
 
 INSTANTIATE_TEST_SUITE_P(Shapes, DetectionMatchesBruteForce,
@@ -108,6 +126,68 @@ INSTANTIATE_TEST_SUITE_P(Shapes, DetectionMatchesBruteForce,
                                   (c.aligned ? "_aligned" : "_random") + "_threads" +
                                   std::to_string(c.threads);
                          });
+
+// The watches hold what they promise: after any step, every listed pair's two bounds are
+// below its slack unless one of its bodies has reached its watch, and each watch is at
+// most the body's allowance in each of its pairs, which sum to less than the slack. And
+// they pay: the pairs read are a small part of the list.
+TEST(Detection, WatchesCoverEveryPair) {
+  Shape shape;
+  Box box;
+  box.length = {18, 20, 19};
+  // A gas without overlaps (bodies of an overlapping pair dropped): a body in contact is
+  // flagged at every step, as the pass over all pairs measures its pair at every step.
+  Particles gas = random_gas(100, box, 7, true);
+  std::set<std::int64_t> dropped;
+  for (const auto &[a, b] : brute_force(gas, box, shape)) dropped.insert({a, b});
+  Particles p;
+  for (std::size_t i = 0; i < gas.size(); ++i)
+    if (!dropped.count(gas.id[i])) {
+      const std::size_t k = p.size();
+      p.resize(k + 1);
+      p.id[k] = gas.id[i];
+      p.set_position(k, gas.position(i));
+      p.set_axis(k, gas.axis(i));
+      p.set_velocity(k, gas.velocity(i));
+      p.set_angular_velocity(k, gas.angular_velocity(i));
+    }
+  const std::size_t n = p.size();
+  ASSERT_GT(n, 30u);
+  NeighborList list;
+  list.skin = 0.4;
+  list.watched_share = 1;  // a list this small would soon switch to the full pass
+  std::vector<Contact> contacts;
+  long long read = 0, listed = 0;
+  for (int step = 0; step < 3000; ++step) {
+    half_step(p, n, shape, 0.0001);
+    if (neighbor_list_expired(list, largest_motion_bound(p, n), n))
+      build_neighbor_list(list, p, n, box, shape);
+    detect_contacts(p, box, shape, list, contacts);
+    // Bodies that touch turn back (each once per step), so that contacts stay brief as
+    // in a run; a pair in contact is measured at every step.
+    std::set<std::uint32_t> turned;
+    for (const Contact &c : contacts)
+      for (const std::uint32_t b : {c.i, c.j})
+        if (turned.insert(b).second) {
+          p.set_velocity(b, -1.0 * p.velocity(b));
+          p.set_angular_velocity(b, -1.0 * p.angular_velocity(b));
+        }
+    ASSERT_TRUE(list.watching) << "step " << step;
+    for (std::size_t i = 0; i < n; ++i)
+      if (list.flagged[i]) read += list.pairs_start[i + 1] - list.pairs_start[i];
+    listed += static_cast<long long>(list.pair_count());
+    for (std::size_t k = 0; k < list.pair_count(); ++k) {
+      const ListedPair &pair = list.pairs[k];
+      ASSERT_LE(list.watch[pair.first], pair.allowance_first) << "step " << step << " pair " << k;
+      ASSERT_LE(list.watch[pair.second], pair.second_allowance())
+          << "step " << step << " pair " << k;
+      ASSERT_LT(pair.allowance_first + pair.second_allowance(), pair.recheck_at);
+    }
+  }
+  EXPECT_GT(list.builds, 1);
+  EXPECT_GT(read, 0);
+  EXPECT_LT(read, listed / 4) << "pair ends read against pairs listed, over all steps";
+}
 
 TEST(Detection, ContactGeometryIsCanonical) {
   Shape shape;
@@ -178,9 +258,9 @@ TEST(Detection, ShadowsBeyondTheSecondRingAreNotAdvanced) {
   EXPECT_EQ(list.active, 3u);
   PairSet kept;
   for (std::size_t k = 0; k < list.pair_count(); ++k) {
-    ASSERT_LT(list.first[k], list.active);
-    ASSERT_LT(list.second[k], list.active);
-    const std::int64_t a = p.id[list.first[k]], b = p.id[list.second[k]];
+    ASSERT_LT(list.pairs[k].first, list.active);
+    ASSERT_LT(list.pairs[k].second, list.active);
+    const std::int64_t a = p.id[list.pairs[k].first], b = p.id[list.pairs[k].second];
     kept.insert({std::min(a, b), std::max(a, b)});
   }
   EXPECT_EQ(kept, (PairSet{{0, 1}, {1, 2}}));
