@@ -35,6 +35,8 @@ void build_cell_list(CellList &list, const Particles &p, std::size_t count, cons
   for (int a = 0; a < 3; ++a)
     list.cells[a] = std::max(1, static_cast<int>(std::floor(side[a] / (reach / k))));
 
+  list.full_stencil = true;
+  for (int a = 0; a < 3; ++a) list.full_stencil &= list.cells[a] >= 2 * k + 1;
   list.stencil.clear();
   for (int oz : axis_offsets(list.cells[2], k))
     for (int oy : axis_offsets(list.cells[1], k))

@@ -21,6 +21,9 @@ struct CellList {
       cell_start;                    // bodies of cell c: order[cell_start[c] .. cell_start[c+1])
   std::vector<std::uint32_t> order;  // body indices sorted by cell
   std::vector<std::array<int, 3>> stencil;  // distinct neighbour offsets, including {0,0,0}
+  // Every axis has the full stencil (-k..k, 2k + 1 cells or more): the box is wider than
+  // twice the reach, so a pair within reach has one periodic image.
+  bool full_stencil = false;
 
   int cell_count() const { return cells[0] * cells[1] * cells[2]; }
   int cell_index(int cx, int cy, int cz) const { return (cz * cells[1] + cy) * cells[0] + cx; }

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdlib>
 #include <limits>
 
@@ -77,7 +78,27 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   const CellList &cl = list.cells;
   const std::uint32_t *member = cl.order.data();
   const Vec3 inverse = box.inverse_length();
-  const double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
+  const double *x = p.x.data(), *y = p.y.data(), *z = p.z.data();
+
+  // Where every axis has the full stencil, a pair within reach has one periodic image, and
+  // the cell it was found through says which: candidates are gathered per cell from folded
+  // centres shifted by whole box lengths, and measured without a rounding per coordinate
+  // (box.minimum_image). This only preselects: the survivors are measured exactly as
+  // before, from minimum_image, so the pairs and their slacks are those of that test alone.
+  const bool unique_images = cl.full_stencil;
+  const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
+  std::vector<double> fx, fy, fz;  // folded centres
+  if (unique_images) {
+    fx.resize(count), fy.resize(count), fz.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      fx[i] = Box::wrap(x[i], side[0]);
+      fy[i] = Box::wrap(y[i], side[1]);
+      fz[i] = Box::wrap(z[i], side[2]);
+    }
+  }
+  // The preselection keeps a little more than the reach: rounding of the folded and the
+  // minimum-image differences differ in the last bits.
+  const double gather_reach2 = centre_reach2 * (1.0 + 1e-9) + 1e-9;
 
   const int nthreads = omp_get_max_threads();
   std::vector<std::vector<ListedPair>> found(nthreads);
@@ -87,6 +108,15 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
     const int tid = omp_get_thread_num();
     auto &mine = found[tid];
     std::vector<std::uint32_t> near;  // candidates whose centres are within reach
+    // The cell's own bodies, then those of the stencil's later cells (nc > c): body a of
+    // the cell meets the candidates after it, so each unordered pair is taken once.
+    std::vector<std::uint32_t> cand;
+    std::vector<double> cx_, cy_, cz_;  // their folded, shifted centres (unique_images)
+    struct Gathered {
+      int cell;
+      double sx, sy, sz;
+    };
+    std::vector<Gathered> cells_here;
     // Contiguous blocks of cells per thread, concatenated in thread order: the list comes out
     // in cell order, which is body order. So the per-step passes, split statically over
     // pairs (detection) and over bodies (integration), give each thread mostly its own
@@ -97,42 +127,72 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
       const int cx = c % cl.cells[0];
       const int cy = (c / cl.cells[0]) % cl.cells[1];
       const int cz = c / (cl.cells[0] * cl.cells[1]);
+      // The cells gathered (own first) and the shifts of their folded centres.
+      cells_here.clear();
+      cells_here.push_back({c, 0.0, 0.0, 0.0});
       for (const auto &o : cl.stencil) {
         // The stencil reaches distinct cells, so visiting only cells nc >= c (and, in c
         // itself, only later bodies) takes each unordered pair exactly once.
         const int nc = cl.neighbour(cx, cy, cz, o);
-        if (nc < c) continue;
-        for (std::uint32_t a = cl.cell_start[c]; a < cl.cell_start[c + 1]; ++a) {
-          const std::uint32_t i = member[a];
-          const std::uint32_t from = nc == c ? a + 1 : cl.cell_start[nc];
-          const std::uint32_t to = cl.cell_start[nc + 1];
-          const double xi = x[i], yi = y[i], zi = z[i];
-          near.clear();
-          for (std::uint32_t b = from; b < to; ++b) {
-            const std::uint32_t j = member[b];
-            const Vec3 rij = box.minimum_image({x[j] - xi, y[j] - yi, z[j] - zi}, inverse);
-            if (norm2(rij) < centre_reach2) near.push_back(j);
+        if (nc <= c) continue;
+        // The shift that brings the neighbour cell's folded centres next to this cell.
+        const auto shift = [](int at, int n, double length) {
+          return at < 0 ? -length : (at >= n ? length : 0.0);
+        };
+        cells_here.push_back({nc, shift(cx + o[0], cl.cells[0], side[0]),
+                              shift(cy + o[1], cl.cells[1], side[1]),
+                              shift(cz + o[2], cl.cells[2], side[2])});
+      }
+      std::size_t total = 0;
+      for (const Gathered &g : cells_here)
+        total += cl.cell_start[g.cell + 1] - cl.cell_start[g.cell];
+      cand.resize(total);
+      if (unique_images) cx_.resize(total), cy_.resize(total), cz_.resize(total);
+      std::size_t q = 0;
+      for (const Gathered &g : cells_here)
+        for (std::uint32_t b = cl.cell_start[g.cell]; b < cl.cell_start[g.cell + 1]; ++b, ++q) {
+          const std::uint32_t j = member[b];
+          cand[q] = j;
+          if (unique_images) {
+            cx_[q] = fx[j] + g.sx;
+            cy_[q] = fy[j] + g.sy;
+            cz_[q] = fz[j] + g.sz;
           }
-          const Vec3 ei = p.axis(i);
-          for (std::uint32_t j : near) {
-            const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
-            const Vec3 ej = p.axis(j);
-            // Cheap lower bound first: with n the unit vector along r's part perpendicular
-            // to e_i, every point pair of the two segments is at least |r_perp| - h |e_j . n|
-            // apart. Side-by-side rods further than the reach are dropped here without the
-            // segment distance (most candidates in a nematic). Squared, without a root;
-            // the margin keeps rounding from dropping a pair inside the reach.
-            if (rods) {
-              const Vec3 rperp = rij - dot(rij, ei) * ei;
-              const double rp2 = norm2(rperp);
-              const double lower = rp2 - h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
-              if (lower > 0.0 && lower * lower > prefilter_reach2 * rp2) continue;
-            }
-            const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
-            const double d = std::sqrt(sc.dist2);
-            if (d >= reach) continue;
-            mine.push_back({i, j, d - shape.diameter - kDistanceSafetyMargin, 0.0});
+        }
+      const std::uint32_t own = cl.cell_start[c + 1] - cl.cell_start[c];
+      const std::uint32_t ncand = static_cast<std::uint32_t>(cand.size());
+      for (std::uint32_t a = 0; a < own; ++a) {
+        const std::uint32_t i = cand[a];
+        near.clear();
+        if (unique_images) {
+          const double xi = cx_[a], yi = cy_[a], zi = cz_[a];
+          for (std::uint32_t q = a + 1; q < ncand; ++q) {
+            const double dx = cx_[q] - xi, dy = cy_[q] - yi, dz = cz_[q] - zi;
+            if (dx * dx + dy * dy + dz * dz < gather_reach2) near.push_back(cand[q]);
           }
+        } else {
+          for (std::uint32_t q = a + 1; q < ncand; ++q) near.push_back(cand[q]);
+        }
+        const Vec3 ei = p.axis(i);
+        for (std::uint32_t j : near) {
+          const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
+          if (!(norm2(rij) < centre_reach2)) continue;
+          const Vec3 ej = p.axis(j);
+          // Cheap lower bound first: with n the unit vector along r's part perpendicular
+          // to e_i, every point pair of the two segments is at least |r_perp| - h |e_j . n|
+          // apart. Side-by-side rods further than the reach are dropped here without the
+          // segment distance (most candidates in a nematic). Squared, without a root;
+          // the margin keeps rounding from dropping a pair inside the reach.
+          if (rods) {
+            const Vec3 rperp = rij - dot(rij, ei) * ei;
+            const double rp2 = norm2(rperp);
+            const double lower = rp2 - h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
+            if (lower > 0.0 && lower * lower > prefilter_reach2 * rp2) continue;
+          }
+          const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
+          const double d = std::sqrt(sc.dist2);
+          if (d >= reach) continue;
+          mine.push_back({i, j, d - shape.diameter - kDistanceSafetyMargin, 0.0});
         }
       }
     }
