@@ -114,6 +114,7 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
     const long hi = std::min(n, 8 * (words * (tid + 1) / nthreads));
     std::vector<Contact> &mine = found[tid];
     std::vector<std::uint32_t> raised;  // this block's flagged bodies
+    long my_ends = 0;
 
 #pragma omp simd
     for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
@@ -124,9 +125,10 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
       for (long i = w; i < std::min(hi, w + 8); ++i)
         if (flagged[i]) {
           raised.push_back(static_cast<std::uint32_t>(i));
-          ends[tid] += start[i + 1] - start[i];
+          my_ends += start[i + 1] - start[i];
         }
     }
+    ends[tid] = my_ends;  // once: the threads' entries share a cache line
 #pragma omp barrier
     // Every thread takes the same decision from the same sum (no further barrier).
     long all_ends = 0;
