@@ -108,10 +108,11 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 #pragma omp parallel num_threads(nthreads) reduction(+ : tests) reduction(max : max_depth)
   {
     const int tid = omp_get_thread_num();
+    const int team = omp_get_num_threads();  // may be fewer than asked for
     // Blocks of whole 8-byte words of flags, so that no two threads write one word.
     const long words = (n + 7) / 8;
-    const long lo = std::min(n, 8 * (words * tid / nthreads));
-    const long hi = std::min(n, 8 * (words * (tid + 1) / nthreads));
+    const long lo = std::min(n, 8 * (words * tid / team));
+    const long hi = std::min(n, 8 * (words * (tid + 1) / team));
     std::vector<Contact> &mine = found[tid];
     std::vector<std::uint32_t> raised;  // this block's flagged bodies
     long my_ends = 0;
