@@ -181,7 +181,7 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
     return detect_contacts_all_pairs(p, box, shape, list, contacts);
   }
   merge_sorted(found, contacts);
-  return {tests, max_depth};
+  return {tests, max_depth, true};
 }
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,

@@ -20,6 +20,7 @@ namespace hardrod {
 struct DetectionStats {
   long long narrow_phase_tests = 0;  // segment distances computed this step
   double max_depth = 0.0;            // deepest overlap this step (0 if none)
+  bool watched = false;              // through the watches, not a pass over every pair
 };
 
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,

@@ -620,6 +620,11 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
     summary["timers_rank_max"] = most;
     summary["timers_rank_mean"] = mean;
   }
+  {  // the share of detections that went through the watches, over all ranks
+    const long long all = comm.sum("summary", sim.detections());
+    const long long watched = comm.sum("summary", sim.detections_watched());
+    summary["detect_watched_share"] = all > 0 ? static_cast<double>(watched) / all : 0.0;
+  }
   nlohmann::json hw;
   hw["available"] = counters.available();
   if (counters.available())

@@ -299,6 +299,8 @@ DetectionStats Simulation::detect() {
   ScopedRegion r(timers_, Region::kDetect);
   const DetectionStats detected =
       detect_contacts(particles_, scene_.box, scene_.shape, list_, contacts_);
+  ++detections_;
+  detections_watched_ += detected.watched;
   if (!(detected.max_depth <= scene_.max_overlap)) {
     pending_depth_ = std::isnan(detected.max_depth) ? 1e300 : detected.max_depth;
     pending_step_ = step_ + 1;

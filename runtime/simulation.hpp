@@ -101,6 +101,10 @@ class Simulation {
   const RegionTimers &timers() const { return timers_; }
   RegionTimers &timers() { return timers_; }
   const NeighborList &neighbor_list() const { return list_; }
+  // Detections this rank ran since it started, and how many went through the watches
+  // (kernels/neighbor_list.hpp) rather than a pass over every pair: a cost diagnostic.
+  long long detections() const { return detections_; }
+  long long detections_watched() const { return detections_watched_; }
   Communicator &comm() { return comm_; }
   const Domain &domain() const { return domain_; }
 
@@ -184,6 +188,7 @@ class Simulation {
   std::unordered_map<std::int64_t, std::uint32_t> index_;  // id -> local index
   std::vector<char> shared_;  // by local index: a shadow, or an owned body held elsewhere
   NeighborList list_;
+  long long detections_ = 0, detections_watched_ = 0;
   std::vector<Contact> contacts_;
   SolverSettings solver_;
   RegionTimers timers_;

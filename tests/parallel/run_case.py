@@ -23,6 +23,8 @@ def main():
     ap.add_argument("--reference", help="directory of the 1 x 1 run to compare with")
     ap.add_argument("--verify", action="store_true", help="check bookkeeping every step")
     ap.add_argument("--set", action="append", default=[])
+    ap.add_argument("--min-watched", type=float, default=0.0,
+                    help="least share of detections through the watches (the scene must use them)")
     args = ap.parse_args()
 
     out = pathlib.Path(args.out)
@@ -48,6 +50,12 @@ def main():
     summary = json.loads((out / "summary.json").read_text())
     print(f"ranks {summary['ranks']} grid {summary['grid']} threads {summary['threads']}: "
           f"checksum {summary['state_checksum']}, collisions {summary['collisions']}")
+    watched = summary["detect_watched_share"]
+    print(f"detections through the watches: {100 * watched:.1f} %")
+    if watched < args.min_watched:
+        print(f"FAILED: the scene must detect through the watches in at least "
+              f"{100 * args.min_watched:.0f} % of the steps")
+        return 1
     if summary["ranks"] != args.ranks:
         print(f"FAILED: ran on {summary['ranks']} ranks, asked for {args.ranks}")
         return 1
