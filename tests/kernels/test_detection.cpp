@@ -110,7 +110,9 @@ TEST_P(DetectionMatchesBruteForce, OverManySteps) {
     EXPECT_GT(total_contacts, 20) << "the test must exercise real contacts";
     EXPECT_GT(list.builds, 1) << "the test must exercise list rebuilds";
     EXPECT_GT(tests, 100) << "the test must exercise re-checks";
-    if (share == 1) EXPECT_EQ(watched_steps, 60);
+    if (share == 1) {
+      EXPECT_EQ(watched_steps, 60);
+    }
   }
   omp_set_num_threads(1);
 }
