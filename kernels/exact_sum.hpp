@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 namespace hardrod {
@@ -25,7 +26,26 @@ class ExactSum {
       poisoned_ = true;
       return;
     }
-    acc_ += static_cast<Int128>(std::ldexp(term, kFractionBits));
+    acc_ += to_grid(term);
+  }
+  // The term on the grid: term 2^64 truncated toward zero, as
+  // static_cast<Int128>(std::ldexp(term, 64)) gives, without the two library calls (the
+  // thermostat adds two terms per body). |term| < 2^40, so the result fits in 105 bits.
+  static Int128 to_grid(double term) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &term, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    const std::uint64_t mantissa =
+        (bits & ((std::uint64_t{1} << 52) - 1)) | (biased ? std::uint64_t{1} << 52 : 0);
+    // term = mantissa 2^(e - 64) with e below, so term 2^64 = mantissa 2^e.
+    const int e = (biased ? biased : 1) - 1075 + kFractionBits;
+    UInt128 magnitude = 0;
+    if (e >= 0)
+      magnitude = static_cast<UInt128>(mantissa) << e;
+    else if (e > -64)
+      magnitude = mantissa >> -e;  // truncation toward zero
+    const auto m = static_cast<Int128>(magnitude);
+    return (bits >> 63) ? -m : m;
   }
   ExactSum &operator+=(const ExactSum &o) {
     acc_ += o.acc_;

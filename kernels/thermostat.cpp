@@ -12,7 +12,8 @@ KineticEnergy kinetic_energy(const Particles &p, std::size_t count, const Shape 
   std::vector<KineticEnergy> part(omp_get_max_threads());
 #pragma omp parallel
   {
-    KineticEnergy &mine = part[omp_get_thread_num()];
+    // Summed here and stored once: the threads' entries of `part` share cache lines.
+    KineticEnergy mine;
 #pragma omp for schedule(static)
     for (long i = 0; i < n; ++i) {
       mine.translational.add(0.5 * shape.mass *
@@ -21,6 +22,7 @@ KineticEnergy kinetic_energy(const Particles &p, std::size_t count, const Shape 
         mine.rotational.add(0.5 * inertia *
                             (p.wx[i] * p.wx[i] + p.wy[i] * p.wy[i] + p.wz[i] * p.wz[i]));
     }
+    part[omp_get_thread_num()] = mine;
   }
   KineticEnergy total;
   for (const auto &k : part) total += k;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "kernels/exact_sum.hpp"
 
@@ -49,6 +50,41 @@ TEST(ExactSum, NegativeAndSmall) {
   s.add(-2.5);
   s.add(1e-12);
   EXPECT_DOUBLE_EQ(s.value(), -2.5 + 1e-12);
+}
+
+// The grid conversion without library calls gives the bits of the cast it replaces, for
+// terms of every magnitude the range allows, both signs, subnormals and exact integers.
+TEST(ExactSum, GridConversionEqualsTheCast) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> mant(1.0, 2.0);
+  std::uniform_int_distribution<int> expo(-1074, 39);
+  std::vector<double> terms{0.0,
+                            -0.0,
+                            1.0,
+                            -1.0,
+                            0.5,
+                            1e-300,
+                            -1e-300,
+                            5e-324,
+                            -5e-324,
+                            std::ldexp(1.0, -64),
+                            std::ldexp(1.0, -65),
+                            std::ldexp(3.0, -66),
+                            -std::ldexp(3.0, -66),
+                            std::ldexp(1.0, 39) * 1.9999999,
+                            123456789.0,
+                            -0.1,
+                            0.1,
+                            std::nextafter(1.0, 2.0),
+                            -std::nextafter(1.0, 0.0)};
+  for (int k = 0; k < 200000; ++k) {
+    const double t = std::ldexp(mant(rng), expo(rng));
+    terms.push_back(k % 2 ? t : -t);
+  }
+  for (const double t : terms) {
+    const Int128 cast = static_cast<Int128>(std::ldexp(t, ExactSum::kFractionBits));
+    ASSERT_TRUE(ExactSum::to_grid(t) == cast) << t;
+  }
 }
 
 }  // namespace
