@@ -163,23 +163,22 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
       const std::uint32_t ncand = static_cast<std::uint32_t>(cand.size());
       for (std::uint32_t a = 0; a < own; ++a) {
         const std::uint32_t i = cand[a];
-        near.clear();
+        if (near.size() < ncand) near.resize(ncand);  // grown, never shrunk: no refills
+        std::uint32_t kept = 0;
         if (unique_images) {
           // Branch-free: about one candidate in five is kept, which a branch mispredicts.
           const double xi = cx_[a], yi = cy_[a], zi = cz_[a];
-          near.resize(ncand - a);
-          std::size_t kept = 0;
           for (std::uint32_t q = a + 1; q < ncand; ++q) {
             const double dx = cx_[q] - xi, dy = cy_[q] - yi, dz = cz_[q] - zi;
             near[kept] = cand[q];
             kept += dx * dx + dy * dy + dz * dz < gather_reach2;
           }
-          near.resize(kept);
         } else {
-          for (std::uint32_t q = a + 1; q < ncand; ++q) near.push_back(cand[q]);
+          for (std::uint32_t q = a + 1; q < ncand; ++q) near[kept++] = cand[q];
         }
         const Vec3 ei = p.axis(i);
-        for (std::uint32_t j : near) {
+        for (std::uint32_t k = 0; k < kept; ++k) {
+          const std::uint32_t j = near[k];
           const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
           if (!(norm2(rij) < centre_reach2)) continue;
           const Vec3 ej = p.axis(j);
