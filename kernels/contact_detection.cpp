@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -85,103 +86,171 @@ void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact>
 // Pairs of two unflagged bodies are not read: their bounds sum to less than the slack
 // (arm_watches). The pairs measured, and so the slacks, are those of a pass over the
 // whole list (detect_contacts_all_pairs), for any thread count.
-DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
-                               NeighborList &list, std::vector<Contact> &contacts) {
-  if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts);
+WatchedDetection::WatchedDetection(const NeighborList &list, int threads)
+    : found(static_cast<std::size_t>(threads)),
+      ends(static_cast<std::size_t>(threads)),
+      tests(static_cast<std::size_t>(threads)),
+      depth(static_cast<std::size_t>(threads)) {
+  (void)list;
+}
+
+void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
+                            NeighborList &list, WatchedDetection &shared) {
   const long n = static_cast<long>(list.active);
-  // Threaded exactly when the integration is (kParallelBodies, particles.hpp).
-  const int nthreads = n > kParallelBodies ? omp_get_max_threads() : 1;
-  std::vector<std::vector<Contact>> found(nthreads);
-  long long tests = 0;
-  double max_depth = 0.0;
   ListedPair *pairs = list.pairs.data();
   const std::uint32_t *start = list.pairs_start.data();
   const std::uint32_t *index = list.pair_index.data();
   const double *bound = p.motion_bound.data();
   double *watch = list.watch.data();
-  list.flagged.resize(static_cast<std::size_t>(n) + 8);  // room for the last word's read
-  std::uint8_t *flagged = list.flagged.data();
+  std::uint8_t *flagged = list.flagged.data();  // n + 8 long (arm_watches)
   const Vec3 inverse = box.inverse_length();
-  std::vector<long> ends(nthreads);  // pair ends of each thread's flagged bodies
-  bool watching = true;
-
-#pragma omp parallel num_threads(nthreads) reduction(+ : tests) reduction(max : max_depth)
-  {
-    const int tid = omp_get_thread_num();
-    const int team = omp_get_num_threads();  // may be fewer than asked for
-    // Blocks of whole 8-byte words of flags, so that no two threads write one word.
-    const long words = (n + 7) / 8;
-    const long lo = std::min(n, 8 * (words * tid / team));
-    const long hi = std::min(n, 8 * (words * (tid + 1) / team));
-    std::vector<Contact> &mine = found[tid];
-    std::vector<std::uint32_t> raised;  // this block's flagged bodies
-    long my_ends = 0;
+  const int tid = omp_get_thread_num();
+  const int team = omp_get_num_threads();
+  const auto [lo, hi] = team_block(n, tid, team);
+  std::vector<Contact> &mine = shared.found[tid];
+  mine.clear();
+  std::vector<std::uint32_t> raised;  // this block's flagged bodies
+  long my_ends = 0;
+  long long tests = 0;
+  double max_depth = 0.0;
 
 #pragma omp simd
-    for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
-    for (long w = lo; w < hi; w += 8) {
-      std::uint64_t word;
-      std::memcpy(&word, flagged + w, sizeof word);
-      if (word == 0) continue;
-      for (long i = w; i < std::min(hi, w + 8); ++i)
-        if (flagged[i]) {
-          raised.push_back(static_cast<std::uint32_t>(i));
-          my_ends += start[i + 1] - start[i];
-        }
-    }
-    ends[tid] = my_ends;  // once: the threads' entries share a cache line
+  for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
+  for (long w = lo; w < hi; w += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, flagged + w, sizeof word);
+    if (word == 0) continue;
+    for (long i = w; i < std::min(hi, w + 8); ++i)
+      if (flagged[i]) {
+        raised.push_back(static_cast<std::uint32_t>(i));
+        my_ends += start[i + 1] - start[i];
+      }
+  }
+  shared.ends[tid] = my_ends;  // once: the threads' entries share a cache line
 #pragma omp barrier
-    // Every thread takes the same decision from the same sum (no further barrier).
-    long all_ends = 0;
-    for (const long e : ends) all_ends += e;
-    if (list.watched_share * all_ends > 2 * static_cast<long>(list.pair_count())) {
-      raised.clear();
-      if (tid == 0) watching = false;
-    }
-    // The pairs' records are scattered through the list: ask for all of them first.
-    for (const std::uint32_t i : raised)
-      for (std::uint32_t a = start[i]; a < start[i + 1]; ++a)
-        __builtin_prefetch(&pairs[index[a]], 1);
-    for (const std::uint32_t i : raised) {
-      for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
-        const std::uint32_t k = index[a];
-        ListedPair &pair = pairs[k];
-        const std::uint32_t f = pair.first, s = pair.second;
-        if (s == i && flagged[f]) continue;  // visited from its first body
-        const double moved = bound[f] + bound[s];
-        if (moved >= pair.recheck_at) {  // the slack is used up: measure
-          ++tests;
-          measure(p, box, inverse, shape, list, k, moved, mine, max_depth);
-        }
-        // The rest of the slack in proportion to the bounds so far: bounds grow about
-        // linearly, so both bodies then reach their allowances about when the pair's
-        // slack is used up (evenly while both bounds are 0).
-        const double rest = pair.recheck_at - moved;
-        pair.allowance_first =
-            bound[f] + (moved > 0.0 && rest > 0.0 ? rest * (bound[f] / moved) : 0.5 * rest);
-        const std::uint32_t other = f == i ? s : f;
-        if (!flagged[other]) {
-          if (nthreads > 1)
-            lower_to(watch[other], pair.allowance(other));
-          else  // the same minimum without the atomic's fence
-            watch[other] = std::min(watch[other], pair.allowance(other));
-        }
+  // Every thread takes the same decision from the same sum (no further barrier).
+  long all_ends = 0;
+  for (int t = 0; t < team; ++t) all_ends += shared.ends[t];
+  if (list.watched_share * all_ends > 2 * static_cast<long>(list.pair_count())) {
+    raised.clear();
+    if (tid == 0) shared.watching = false;
+  }
+  // The pairs' records are scattered through the list: ask for all of them first.
+  for (const std::uint32_t i : raised)
+    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) __builtin_prefetch(&pairs[index[a]], 1);
+  for (const std::uint32_t i : raised) {
+    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
+      const std::uint32_t k = index[a];
+      ListedPair &pair = pairs[k];
+      const std::uint32_t f = pair.first, s = pair.second;
+      if (s == i && flagged[f]) continue;  // visited from its first body
+      const double moved = bound[f] + bound[s];
+      if (moved >= pair.recheck_at) {  // the slack is used up: measure
+        ++tests;
+        measure(p, box, inverse, shape, list, k, moved, mine, max_depth);
+      }
+      // The rest of the slack in proportion to the bounds so far: bounds grow about
+      // linearly, so both bodies then reach their allowances about when the pair's
+      // slack is used up (evenly while both bounds are 0).
+      const double rest = pair.recheck_at - moved;
+      pair.allowance_first =
+          bound[f] + (moved > 0.0 && rest > 0.0 ? rest * (bound[f] / moved) : 0.5 * rest);
+      const std::uint32_t other = f == i ? s : f;
+      if (!flagged[other]) {
+        if (team > 1)
+          lower_to(watch[other], pair.allowance(other));
+        else  // the same minimum without the atomic's fence
+          watch[other] = std::min(watch[other], pair.allowance(other));
       }
     }
-#pragma omp barrier
-    for (const std::uint32_t i : raised) {
-      double w = std::numeric_limits<double>::infinity();
-      for (std::uint32_t a = start[i]; a < start[i + 1]; ++a)
-        w = std::min(w, pairs[index[a]].allowance(i));
-      watch[i] = w;
-    }
   }
-  if (!watching) {
+#pragma omp barrier
+  for (const std::uint32_t i : raised) {
+    double w = std::numeric_limits<double>::infinity();
+    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a)
+      w = std::min(w, pairs[index[a]].allowance(i));
+    watch[i] = w;
+  }
+  shared.tests[tid] = tests;
+  shared.depth[tid] = max_depth;
+}
+
+DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
+                                        NeighborList &list, WatchedDetection &shared,
+                                        std::vector<Contact> &contacts) {
+  if (!shared.watching) {  // too many flagged: the full pass, now and until the next build
     list.watching = false;
     return detect_contacts_all_pairs(p, box, shape, list, contacts);
   }
-  merge_sorted(found, contacts);
-  return {tests, max_depth, true};
+  DetectionStats out;
+  out.watched = true;
+  for (std::size_t t = 0; t < shared.tests.size(); ++t) {
+    out.narrow_phase_tests += shared.tests[t];
+    out.max_depth = std::max(out.max_depth, shared.depth[t]);
+  }
+  merge_sorted(shared.found, contacts);
+  return out;
+}
+
+// Each thread takes one block of bodies (team_block: the list's body order is cell order,
+// so mostly its own pairs too) and makes three passes over it:
+//  1. flag the bodies whose motion bound reached their watch (a vector compare), and list
+//     them, skipping eight clear flags at a time;
+//  2. for each flagged body, its pairs: measure those whose bounds used up the slack, and
+//     split every visited pair's remaining slack between its two bodies. A pair of two
+//     flagged bodies is visited from its first body only, so each pair has one writer.
+//     An unflagged partner whose allowance shrank lowers its watch to it (atomic minimum);
+//  3. each flagged body's watch becomes its smallest allowance.
+// Pairs of two unflagged bodies are not read: their bounds sum to less than the slack
+// (arm_watches). The pairs measured, and so the slacks, are those of a pass over the
+// whole list (detect_contacts_all_pairs), for any thread count.
+DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
+                               NeighborList &list, std::vector<Contact> &contacts) {
+  if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts);
+  // Threaded exactly when the integration is (kParallelBodies, particles.hpp).
+  const int nthreads = static_cast<long>(list.active) > kParallelBodies ? omp_get_max_threads() : 1;
+  WatchedDetection shared(list, nthreads);
+#pragma omp parallel num_threads(nthreads)
+  detect_watched_in_team(p, box, shape, list, shared);
+  return finish_watched_detection(p, box, shape, list, shared, contacts);
+}
+
+MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Shape &shape,
+                                      double half_dt, int halves, NeighborList &list,
+                                      const Box &box, std::vector<Contact> &contacts) {
+  const long n = static_cast<long>(count);
+  const int nthreads = n > kParallelBodies ? omp_get_max_threads() : 1;
+  // The watches are kept for exactly these bodies: detect in the same region.
+  const bool watched =
+      list.builds > 0 && list.watching && list.active == count && list.bodies == p.size();
+  MidpointDetection out;
+  std::vector<double> largest(static_cast<std::size_t>(nthreads), 0.0);
+  WatchedDetection shared(list, watched ? nthreads : 0);
+  bool expired = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::chrono::steady_clock::time_point t1;
+#pragma omp parallel num_threads(nthreads)
+  {
+    const int tid = omp_get_thread_num();
+    const auto [lo, hi] = team_block(n, tid, omp_get_num_threads());
+    largest[tid] = drift_block(p, lo, hi, shape, half_dt, halves);
+#pragma omp barrier
+#pragma omp master
+    t1 = std::chrono::steady_clock::now();
+    // Every thread reads the same maxima and decides alike.
+    double all = 0.0;
+    for (int t = 0; t < omp_get_num_threads(); ++t) all = std::max(all, largest[t]);
+    const bool expired_here = neighbor_list_expired(list, all, list.bodies);
+    if (tid == 0) expired = expired_here;
+    if (watched && !expired_here) detect_watched_in_team(p, box, shape, list, shared);
+  }
+  out.largest_bound = *std::max_element(largest.begin(), largest.end());
+  out.drift_nanoseconds = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
+  if (watched && !expired) {
+    out.detected = true;
+    out.stats = finish_watched_detection(p, box, shape, list, shared, contacts);
+  }
+  return out;
 }
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,

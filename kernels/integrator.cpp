@@ -1,6 +1,10 @@
 #include "kernels/integrator.hpp"
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace hardrod {
 
@@ -68,8 +72,9 @@ namespace {
 // Halves = 2 is the second half of one step and the first half of the next in one pass:
 // each half's additions and rotation are applied in turn, so the bits are those of two
 // passes, with one load and store of every body and one square root and rotation series.
+// Bodies [lo, hi), no threads of its own (element-wise: any split gives the same bits).
 template <bool Rotate, int Halves>
-double drift(Particles &p, long n, double arm, double half_dt) {
+double drift(Particles &p, long lo, long hi, double arm, double half_dt) {
   double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(), *__restrict ez = p.ez.data();
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
@@ -81,9 +86,8 @@ double drift(Particles &p, long n, double arm, double half_dt) {
   long large_angles = 0;
   double largest = 0.0;
 
-#pragma omp parallel for simd schedule(static) reduction(+ : large_angles) \
-    reduction(max : largest) if (n > kParallelBodies)
-  for (long i = 0; i < n; ++i) {
+#pragma omp simd reduction(+ : large_angles) reduction(max : largest)
+  for (long i = lo; i < hi; ++i) {
     const double dx = vx[i] * half_dt, dy = vy[i] * half_dt, dz = vz[i] * half_dt;
     double xi = x[i], yi = y[i], zi = z[i], bi = bound[i];
     const double speed = std::sqrt(vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i]);
@@ -119,8 +123,7 @@ double drift(Particles &p, long n, double arm, double half_dt) {
     largest = largest > bi ? largest : bi;
   }
   if (large_angles > 0) {
-#pragma omp parallel for schedule(static) if (n > kParallelBodies)
-    for (long i = 0; i < n; ++i) {
+    for (long i = lo; i < hi; ++i) {
       const double w2 = wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
       if (w2 > max_series_w2) {
         const Rotation r = library_rotation(w2, half_dt);
@@ -131,18 +134,36 @@ double drift(Particles &p, long n, double arm, double half_dt) {
   return largest;
 }
 
+// Every body [0, count), threads splitting them in team blocks above kParallelBodies.
+double drift_all(Particles &p, std::size_t count, const Shape &shape, double half_dt, int halves) {
+  const long n = static_cast<long>(count);
+  const int nthreads = n > kParallelBodies ? omp_get_max_threads() : 1;
+  std::vector<double> largest(nthreads, 0.0);
+#pragma omp parallel num_threads(nthreads)
+  {
+    const auto [lo, hi] = team_block(n, omp_get_thread_num(), omp_get_num_threads());
+    largest[omp_get_thread_num()] = drift_block(p, lo, hi, shape, half_dt, halves);
+  }
+  return *std::max_element(largest.begin(), largest.end());
+}
+
 }  // namespace
 
+double drift_block(Particles &p, long lo, long hi, const Shape &shape, double half_dt, int halves) {
+  const double arm = shape.half_length();
+  if (shape.is_sphere())
+    return halves == 2 ? drift<false, 2>(p, lo, hi, 0.0, half_dt)
+                       : drift<false, 1>(p, lo, hi, 0.0, half_dt);
+  return halves == 2 ? drift<true, 2>(p, lo, hi, arm, half_dt)
+                     : drift<true, 1>(p, lo, hi, arm, half_dt);
+}
+
 double half_step(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
-  const long n = static_cast<long>(count);
-  return shape.is_sphere() ? drift<false, 1>(p, n, 0.0, half_dt)
-                           : drift<true, 1>(p, n, shape.half_length(), half_dt);
+  return drift_all(p, count, shape, half_dt, 1);
 }
 
 double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
-  const long n = static_cast<long>(count);
-  return shape.is_sphere() ? drift<false, 2>(p, n, 0.0, half_dt)
-                           : drift<true, 2>(p, n, shape.half_length(), half_dt);
+  return drift_all(p, count, shape, half_dt, 2);
 }
 
 void restore_rotor_constraints(Particles &p, std::size_t count) {

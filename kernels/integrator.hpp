@@ -25,6 +25,11 @@ double half_step(Particles &p, std::size_t count, const Shape &shape, double hal
 // happens between them (no contacts are resolved between the two halves of one pass).
 double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt);
 
+// One or two half steps (`halves`) for bodies [lo, hi) only, with no threads of its own:
+// for a thread of a team that takes the block team_block(...) (particles.hpp), as
+// advance_to_midpoint does. Returns the block's largest motion bound.
+double drift_block(Particles &p, long lo, long hi, const Shape &shape, double half_dt, int halves);
+
 // Renormalise the axes and remove the component of w along them that rounding introduces
 // over many steps, so |e| = 1 and w stays perpendicular to e (every kConstraintInterval
 // steps, not every step: the drift is ~1e-16 per step).

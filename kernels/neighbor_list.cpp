@@ -230,7 +230,7 @@ void arm_watches(NeighborList &list) {
     list.pair_index[next[list.pairs[k].second]++] = static_cast<std::uint32_t>(k);
   }
   list.watch.resize(n);
-  list.flagged.assign(n, 0);
+  list.flagged.assign(n + 8, 0);  // room for the last word's read
   list.watching = true;
 #pragma omp parallel for schedule(static) if (static_cast <long>(n) > kParallelBodies)
   for (std::size_t i = 0; i < n; ++i) {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -174,25 +175,24 @@ void Simulation::step() { advance(1); }
 void Simulation::advance(long long count) {
   const double half_dt = 0.5 * scene_.dt;
   const Shape &shape = scene_.shape;
-  double largest_bound = 0.0;
+  MidpointDetection reached;
   bool at_midpoint = false;  // the first half of this step is done already
   for (long long k = 0; k < count; ++k) {
-    if (!at_midpoint) {  // 1. first half: free flight to the midpoint, owned bodies and shadows
-      ScopedRegion r(timers_, Region::kIntegrate);
-      largest_bound = half_step(particles_, advanced(), shape, half_dt);
-    }
-    midpoint(largest_bound);  // 2.-3. contacts and impulses
+    // 1. first half: free flight to the midpoint, owned bodies and shadows (and, in the same
+    // parallel region, the detection there)
+    if (!at_midpoint) reached = to_midpoint(1);
+    midpoint(reached);  // 2.-3. contacts and impulses
     ++step_;
     const bool constrain = step_ % kConstraintInterval == 0;
     const bool thermostat =
         scene_.thermostat_interval > 0 && step_ % scene_.thermostat_interval == 0;
     at_midpoint = k + 1 < count && !constrain && !thermostat && !stop_agreed_;
-    {  // 4. second half, and with it the next step's first half where nothing acts between
+    // 4. second half, and with it the next step's first half where nothing acts between
+    if (at_midpoint) {
+      reached = to_midpoint(2);
+    } else {
       ScopedRegion r(timers_, Region::kIntegrate);
-      if (at_midpoint)
-        largest_bound = two_half_steps(particles_, advanced(), shape, half_dt);
-      else
-        half_step(particles_, advanced(), shape, half_dt);
+      half_step(particles_, advanced(), shape, half_dt);
     }
     if (constrain) {
       ScopedRegion r(timers_, Region::kIntegrate);
@@ -206,10 +206,29 @@ void Simulation::advance(long long count) {
   }
 }
 
+// Free flight to the midpoint (`halves` half steps) and the detection there when the list
+// keeps its watches: one parallel region (advance_to_midpoint). Timed as integrate and
+// detect.
+MidpointDetection Simulation::to_midpoint(int halves) {
+  const auto start = std::chrono::steady_clock::now();
+  MidpointDetection m = advance_to_midpoint(particles_, advanced(), scene_.shape, 0.5 * scene_.dt,
+                                            halves, list_, scene_.box, contacts_);
+  const long long all =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start)
+          .count();
+  timers_.add(Region::kIntegrate, m.drift_nanoseconds);
+  if (m.detected) {
+    timers_.add(Region::kDetect, all - m.drift_nanoseconds);
+    note_detection(m.stats);
+  }
+  return m;
+}
+
 // The middle of a step, with the bodies at its midpoint: contacts, the step's agreement, a
 // rebuild if the list expired, impulses, and the step's tallies.
-void Simulation::midpoint(double largest_bound) {
+void Simulation::midpoint(const MidpointDetection &reached) {
   const Shape &shape = scene_.shape;
+  const double largest_bound = reached.largest_bound;
   // 2. contacts at the midpoint, found before the step's one reduction so that it can also
   // tell every rank whether any contact touches a rank boundary this step. A rank whose own
   // bounds already expire the list skips this: it knows a rebuild follows.
@@ -217,7 +236,7 @@ void Simulation::midpoint(double largest_bound) {
   bool boundary = false;
   const bool expired_here = neighbor_list_expired(list_, largest_bound, particles_.size());
   if (!expired_here) {
-    detected = detect();
+    detected = reached.detected ? reached.stats : detect();
     boundary = touches_boundary();
   }
   const Agreement agreed = agree(largest_bound, boundary);
@@ -301,13 +320,17 @@ DetectionStats Simulation::detect() {
   ScopedRegion r(timers_, Region::kDetect);
   const DetectionStats detected =
       detect_contacts(particles_, scene_.box, scene_.shape, list_, contacts_);
+  note_detection(detected);
+  return detected;
+}
+
+void Simulation::note_detection(const DetectionStats &detected) {
   ++detections_;
   detections_watched_ += detected.watched;
   if (!(detected.max_depth <= scene_.max_overlap)) {
     pending_depth_ = std::isnan(detected.max_depth) ? 1e300 : detected.max_depth;
     pending_step_ = step_ + 1;
   }
-  return detected;
 }
 
 // A contact crosses a rank boundary when one of its bodies is a shadow here or has shadow

@@ -162,7 +162,9 @@ class Simulation {
 
   void configure(Particles all, ParallelOptions parallel);
   Agreement agree(double largest_bound, bool boundary);
-  void midpoint(double largest_bound);
+  void midpoint(const MidpointDetection &reached);
+  MidpointDetection to_midpoint(int halves);
+  void note_detection(const DetectionStats &detected);
   // Bodies [0, advanced()) are moved every step: the owned ones, and the shadows the pair list
   // keeps (before the first build there are no shadows).
   std::size_t advanced() const { return list_.builds == 0 ? owned_ : list_.active; }
