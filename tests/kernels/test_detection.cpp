@@ -133,13 +133,13 @@ INSTANTIATE_TEST_SUITE_P(Shapes, DetectionMatchesBruteForce,
 // below its slack unless one of its bodies has reached its watch, and each watch is at
 // most the body's allowance in each of its pairs, which sum to less than the slack. And
 // they pay: the pairs read are a small part of the list.
-TEST(Detection, WatchesCoverEveryPair) {
+void check_watches(double scale, std::size_t bodies, int threads, int steps) {
   Shape shape;
   Box box;
-  box.length = {18, 20, 19};
+  box.length = {18 * scale, 20 * scale, 19 * scale};
   // A gas without overlaps (bodies of an overlapping pair dropped): a body in contact is
   // flagged at every step, as the pass over all pairs measures its pair at every step.
-  Particles gas = random_gas(100, box, 7, true);
+  Particles gas = random_gas(bodies, box, 7, true);
   std::set<std::int64_t> dropped;
   for (const auto &[a, b] : brute_force(gas, box, shape)) dropped.insert({a, b});
   Particles p;
@@ -154,13 +154,14 @@ TEST(Detection, WatchesCoverEveryPair) {
       p.set_angular_velocity(k, gas.angular_velocity(i));
     }
   const std::size_t n = p.size();
-  ASSERT_GT(n, 30u);
+  ASSERT_GT(n, bodies / 3);
+  omp_set_num_threads(threads);
   NeighborList list;
   list.skin = 0.4;
   list.watched_share = 1;  // a list this small would soon switch to the full pass
   std::vector<Contact> contacts;
   long long read = 0, listed = 0;
-  for (int step = 0; step < 3000; ++step) {
+  for (int step = 0; step < steps; ++step) {
     half_step(p, n, shape, 0.0001);
     if (neighbor_list_expired(list, largest_motion_bound(p, n), n))
       build_neighbor_list(list, p, n, box, shape);
@@ -189,7 +190,14 @@ TEST(Detection, WatchesCoverEveryPair) {
   EXPECT_GT(list.builds, 1);
   EXPECT_GT(read, 0);
   EXPECT_LT(read, listed / 4) << "pair ends read against pairs listed, over all steps";
+  omp_set_num_threads(1);
 }
+
+TEST(Detection, WatchesCoverEveryPair) { check_watches(1.0, 100, 1, 3000); }
+
+// The same with more bodies than kParallelBodies on two threads: the threads lower watches
+// of bodies in each other's blocks (atomic minimum). Dropping that lowering fails here.
+TEST(Detection, WatchesCoverEveryPairOnTwoThreads) { check_watches(4.0, 6400, 2, 400); }
 
 TEST(Detection, ContactGeometryIsCanonical) {
   Shape shape;
