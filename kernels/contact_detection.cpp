@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 
+#include "kernels/integrator.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
@@ -74,25 +75,11 @@ void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact>
 
 }  // namespace
 
-// Each thread takes one contiguous block of bodies (the list's body order is cell order, so
-// mostly its own pairs too) and makes three passes over it:
-//  1. flag the bodies whose motion bound reached their watch (a vector compare), and list
-//     them, skipping eight clear flags at a time;
-//  2. for each flagged body, its pairs: measure those whose bounds used up the slack, and
-//     split every visited pair's remaining slack between its two bodies. A pair of two
-//     flagged bodies is visited from its first body only, so each pair has one writer. An
-//     unflagged partner whose allowance shrank lowers its watch to it (atomic minimum);
-//  3. each flagged body's watch becomes its smallest allowance.
-// Pairs of two unflagged bodies are not read: their bounds sum to less than the slack
-// (arm_watches). The pairs measured, and so the slacks, are those of a pass over the
-// whole list (detect_contacts_all_pairs), for any thread count.
-WatchedDetection::WatchedDetection(const NeighborList &list, int threads)
+WatchedDetection::WatchedDetection(int threads)
     : found(static_cast<std::size_t>(threads)),
       ends(static_cast<std::size_t>(threads)),
       tests(static_cast<std::size_t>(threads)),
-      depth(static_cast<std::size_t>(threads)) {
-  (void)list;
-}
+      depth(static_cast<std::size_t>(threads)) {}
 
 void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
                             NeighborList &list, WatchedDetection &shared) {
@@ -207,9 +194,9 @@ DetectionStats finish_watched_detection(const Particles &p, const Box &box, cons
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
                                NeighborList &list, std::vector<Contact> &contacts) {
   if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts);
-  // Threaded exactly when the integration is (kParallelBodies, particles.hpp).
-  const int nthreads = static_cast<long>(list.active) > kParallelBodies ? omp_get_max_threads() : 1;
-  WatchedDetection shared(list, nthreads);
+  // Threaded exactly when the integration is (particles.hpp).
+  const int nthreads = team_threads(static_cast<long>(list.active));
+  WatchedDetection shared(nthreads);
 #pragma omp parallel num_threads(nthreads)
   detect_watched_in_team(p, box, shape, list, shared);
   return finish_watched_detection(p, box, shape, list, shared, contacts);
@@ -219,13 +206,13 @@ MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Sha
                                       double half_dt, int halves, NeighborList &list,
                                       const Box &box, std::vector<Contact> &contacts) {
   const long n = static_cast<long>(count);
-  const int nthreads = n > kParallelBodies ? omp_get_max_threads() : 1;
+  const int nthreads = team_threads(n);
   // The watches are kept for exactly these bodies: detect in the same region.
   const bool watched =
       list.builds > 0 && list.watching && list.active == count && list.bodies == p.size();
   MidpointDetection out;
   std::vector<double> largest(static_cast<std::size_t>(nthreads), 0.0);
-  WatchedDetection shared(list, watched ? nthreads : 0);
+  WatchedDetection shared(watched ? nthreads : 0);
   bool expired = true;
   const auto t0 = std::chrono::steady_clock::now();
   std::chrono::steady_clock::time_point t1;

@@ -11,7 +11,6 @@
 
 #include "kernels/box.hpp"
 #include "kernels/contact.hpp"
-#include "kernels/integrator.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/particles.hpp"
 #include "kernels/shape.hpp"
@@ -32,7 +31,7 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 // then one thread calls finish_watched_detection, which merges the contacts (or, when too
 // many bodies were flagged, switches the list to the full pass and runs it).
 struct WatchedDetection {
-  WatchedDetection(const NeighborList &list, int threads);
+  explicit WatchedDetection(int threads);
   std::vector<std::vector<Contact>> found;
   std::vector<long> ends;
   std::vector<long long> tests;

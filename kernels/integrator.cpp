@@ -137,7 +137,7 @@ double drift(Particles &p, long lo, long hi, double arm, double half_dt) {
 // Every body [0, count), threads splitting them in team blocks above kParallelBodies.
 double drift_all(Particles &p, std::size_t count, const Shape &shape, double half_dt, int halves) {
   const long n = static_cast<long>(count);
-  const int nthreads = n > kParallelBodies ? omp_get_max_threads() : 1;
+  const int nthreads = team_threads(n);
   std::vector<double> largest(nthreads, 0.0);
 #pragma omp parallel num_threads(nthreads)
   {

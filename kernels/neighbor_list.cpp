@@ -118,10 +118,10 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
     };
     std::vector<Gathered> cells_here;
     // Contiguous blocks of cells per thread, concatenated in thread order: the list comes out
-    // in cell order, which is body order. So the per-step passes, split statically over
-    // pairs (detection) and over bodies (integration), give each thread mostly its own
-    // bodies, and their motion bounds stay in its cache instead of moving between cores
-    // every step (with interleaved blocks, two threads detected no faster than one).
+    // in cell order, which is body order. So the per-step passes, split in blocks of bodies
+    // (team_block), give each thread mostly its own pairs too, and the bodies' motion
+    // bounds stay in its cache instead of moving between cores every step (with interleaved
+    // blocks, two threads detected no faster than one).
 #pragma omp for schedule(static)
     for (int c = 0; c < cl.cell_count(); ++c) {
       const int cx = c % cl.cells[0];

@@ -3,6 +3,8 @@
 // that every reduction and every contact list is sorted by (SPEC.md section 7).
 #pragma once
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -20,6 +22,9 @@ namespace hardrod {
 // 2304-rod scene no faster than one (30.7 and 31.5 ns per particle-step; 20.1 once both
 // passes were threaded).
 inline constexpr long kParallelBodies = 2048;
+
+// Threads for a per-step pass over n bodies: all of them above kParallelBodies, else one.
+inline int team_threads(long n) { return n > kParallelBodies ? omp_get_max_threads() : 1; }
 
 // The bodies [first, second) that thread `tid` of a team of `team` takes in the per-step
 // passes (integration, detection): whole 8-body words, so that two threads' byte flags

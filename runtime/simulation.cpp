@@ -169,9 +169,9 @@ void Simulation::fail(const std::string &message) { throw PhysicsError(message);
 void Simulation::step() { advance(1); }
 
 // Steps in a row: between two steps of one call nothing reads the state, so the second half
-// of a step and the first half of the next run as one pass over the bodies
-// (two_half_steps: the same bits as two passes), except where the rotor constraints or the
-// thermostat act between them, or a stop was agreed.
+// of a step and the first half of the next run as one pass over the bodies (to_midpoint(2):
+// the same bits as two passes), except where the rotor constraints or the thermostat act
+// between them, or a stop was agreed.
 void Simulation::advance(long long count) {
   const double half_dt = 0.5 * scene_.dt;
   const Shape &shape = scene_.shape;
