@@ -6,7 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numeric>
+#include <stdexcept>
 
 #include "kernels/contact_detection.hpp"
 #include "kernels/initial_state.hpp"
@@ -23,20 +25,44 @@ namespace {
 
 // A body on the wire: id and the 12 doubles of its state (the motion bound restarts at 0
 // with every rebuild, so it does not travel).
+// A body on the wire: its id and twelve doubles (position, axis, velocity, angular velocity).
+constexpr std::size_t kBodyBytes = sizeof(std::int64_t) + 12 * sizeof(double);
+
 void pack_body(std::vector<char> &buf, const Particles &p, std::size_t i) {
-  pack(buf, p.id[i]);
+  const std::size_t at = buf.size();
+  buf.resize(at + kBodyBytes);
+  char *out = buf.data() + at;
+  std::memcpy(out, &p.id[i], sizeof(std::int64_t));
+  out += sizeof(std::int64_t);
   for (const auto *f :
-       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz})
-    pack(buf, (*f)[i]);
+       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
+    std::memcpy(out, &(*f)[i], sizeof(double));
+    out += sizeof(double);
+  }
 }
 
+// Into slot i of bodies already sized.
+void unpack_body_at(const std::vector<char> &buf, std::size_t &off, Particles &p, std::size_t i) {
+  if (off + kBodyBytes > buf.size())
+    throw std::logic_error(fmt::format("unpack_body: {} bytes left at offset {}, a body needs {}",
+                                       buf.size() - off, off, kBodyBytes));
+  const char *in = buf.data() + off;
+  std::memcpy(&p.id[i], in, sizeof(std::int64_t));
+  in += sizeof(std::int64_t);
+  for (auto *f :
+       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
+    std::memcpy(&(*f)[i], in, sizeof(double));
+    in += sizeof(double);
+  }
+  p.motion_bound[i] = 0.0;
+  off += kBodyBytes;
+}
+
+// Appended after the bodies already there.
 void unpack_body(const std::vector<char> &buf, std::size_t &off, Particles &p) {
   const std::size_t i = p.size();
   p.resize(i + 1);
-  p.id[i] = unpack<std::int64_t>(buf, off);
-  for (auto *f : {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz})
-    (*f)[i] = unpack<double>(buf, off);
-  p.motion_bound[i] = 0.0;
+  unpack_body_at(buf, off, p, i);
 }
 
 // Global axis moments from the first six of a rank-summed list (xx, xy, xz, yy, yz, zz).
@@ -739,15 +765,32 @@ AngularCounts Simulation::angular_distribution(const Vec3 &director, int bins) {
 
 Particles Simulation::gather_bodies() {
   std::vector<char> mine;
+  mine.reserve(owned_ * kBodyBytes);
   for (std::size_t i = 0; i < owned_; ++i) pack_body(mine, particles_, i);
   const std::vector<char> all = comm_.gather("gather", mine);
   Particles bodies;
   if (!comm_.is_root()) return bodies;
-  for (std::size_t off = 0; off < all.size();) unpack_body(all, off, bodies);
-  std::vector<std::uint32_t> order(bodies.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return bodies.id[a] < bodies.id[b]; });
+  const std::size_t total = all.size() / kBodyBytes;
+  bodies.resize(total);
+  for (std::size_t k = 0, off = 0; k < total; ++k) unpack_body_at(all, off, bodies, k);
+  // Ids are 0..n-1 (every start numbers the bodies so): body k goes to row id[k], no sort.
+  // Anything else (not a permutation) is sorted, as a check costs one pass.
+  std::vector<std::uint32_t> order(total, 0);
+  std::vector<char> seen(total, 0);
+  bool dense = true;
+  for (std::size_t k = 0; k < total && dense; ++k) {
+    const std::int64_t id = bodies.id[k];
+    dense = id >= 0 && static_cast<std::size_t>(id) < total && !seen[static_cast<std::size_t>(id)];
+    if (dense) {
+      seen[static_cast<std::size_t>(id)] = 1;
+      order[static_cast<std::size_t>(id)] = static_cast<std::uint32_t>(k);
+    }
+  }
+  if (!dense) {
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(),
+              [&](std::uint32_t a, std::uint32_t b) { return bodies.id[a] < bodies.id[b]; });
+  }
   bodies.permute(order);
   return bodies;
 }
