@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 namespace hardrod {
@@ -73,16 +74,49 @@ namespace {
 // each half's additions and rotation are applied in turn, so the bits are those of two
 // passes, with one load and store of every body and one square root and rotation series.
 // Bodies [lo, hi), no threads of its own (element-wise: any split gives the same bits).
+// The motion constants of body i (Particles::grow, turn_*): the arithmetic the half step
+// used to do in every pass, unchanged, so the bits are those of before.
+template <bool Rotate>
+inline void motion_constants(Particles &p, long i, double arm, double half_dt,
+                             double max_series_w2) {
+  const double speed = std::sqrt(p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i]);
+  if constexpr (Rotate) {
+    const double w2 = p.wx[i] * p.wx[i] + p.wy[i] * p.wy[i] + p.wz[i] * p.wz[i];
+    // The chord a point at distance L/2 from the centre sweeps is at most L/2 |w| dt/2.
+    // A relative 1e-12 on top covers the rounding of this sum and of the rotation.
+    p.grow[i] = (speed + arm * std::sqrt(w2)) * half_dt * (1.0 + 1e-12);
+    // A large angle gets the identity here and its rotation in drift's scalar pass.
+    const bool series = w2 <= max_series_w2;
+    const Rotation r = series_rotation(series ? w2 : 0.0, series ? half_dt : 0.0);
+    p.turn_cos[i] = r.cos_a;
+    p.turn_sin[i] = r.sin_over_w;
+    p.turn_vers[i] = r.vers_over_w2;
+  } else {
+    p.grow[i] = speed * half_dt * (1.0 + 1e-12);
+  }
+}
+
+double max_series_w2(double half_dt) { return (kSeriesAngle / half_dt) * (kSeriesAngle / half_dt); }
+
+// Spheres (Rotate = false) skip the rotation entirely: a scene pays only for what it uses.
+// Halves = 2 is the second half of one step and the first half of the next in one pass:
+// each half's additions and rotation are applied in turn, so the bits are those of two
+// passes, with one load and store of every body. The motion constants are read, not
+// computed (refresh_motion). Bodies [lo, hi), no threads of its own (element-wise: any
+// split gives the same bits).
 template <bool Rotate, int Halves>
-double drift(Particles &p, long lo, long hi, double arm, double half_dt) {
+double drift(Particles &p, long lo, long hi, double half_dt) {
   double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(), *__restrict ez = p.ez.data();
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
                            *__restrict vz = p.vz.data();
   const double *__restrict wx = p.wx.data(), *__restrict wy = p.wy.data(),
                            *__restrict wz = p.wz.data();
+  const double *__restrict grow = p.grow.data(), *__restrict turn_cos = p.turn_cos.data(),
+                           *__restrict turn_sin = p.turn_sin.data(),
+                           *__restrict turn_vers = p.turn_vers.data();
   double *__restrict bound = p.motion_bound.data();
-  const double max_series_w2 = (kSeriesAngle / half_dt) * (kSeriesAngle / half_dt);
+  const double largest_series_w2 = max_series_w2(half_dt);
   long large_angles = 0;
   double largest = 0.0;
 
@@ -90,31 +124,22 @@ double drift(Particles &p, long lo, long hi, double arm, double half_dt) {
   for (long i = lo; i < hi; ++i) {
     const double dx = vx[i] * half_dt, dy = vy[i] * half_dt, dz = vz[i] * half_dt;
     double xi = x[i], yi = y[i], zi = z[i], bi = bound[i];
-    const double speed = std::sqrt(vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i]);
-    double grow;
+    const double gi = grow[i];
     if constexpr (Rotate) {
       const double w2 = wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
-      // The chord a point at distance L/2 from the centre sweeps is at most L/2 |w| dt/2.
-      // A relative 1e-12 on top covers the rounding of this sum and of the rotation.
-      grow = (speed + arm * std::sqrt(w2)) * half_dt * (1.0 + 1e-12);
-      // Branch-free so the loop vectorises: a large angle gets the identity here and its
-      // rotation in the scalar pass below.
-      const bool series = w2 <= max_series_w2;
-      large_angles += series ? 0 : 1;
-      const Rotation r = series_rotation(series ? w2 : 0.0, series ? half_dt : 0.0);
+      large_angles += w2 <= largest_series_w2 ? 0 : 1;
+      const Rotation r{turn_cos[i], turn_sin[i], turn_vers[i]};
       double exi = ex[i], eyi = ey[i], ezi = ez[i];
       for (int h = 0; h < Halves; ++h) rotate_axis(exi, eyi, ezi, wx[i], wy[i], wz[i], r);
       ex[i] = exi;
       ey[i] = eyi;
       ez[i] = ezi;
-    } else {
-      grow = speed * half_dt * (1.0 + 1e-12);
     }
     for (int h = 0; h < Halves; ++h) {
       xi += dx;
       yi += dy;
       zi += dz;
-      bi += grow;
+      bi += gi;
     }
     x[i] = xi;
     y[i] = yi;
@@ -125,7 +150,7 @@ double drift(Particles &p, long lo, long hi, double arm, double half_dt) {
   if (large_angles > 0) {
     for (long i = lo; i < hi; ++i) {
       const double w2 = wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
-      if (w2 > max_series_w2) {
+      if (w2 > largest_series_w2) {
         const Rotation r = library_rotation(w2, half_dt);
         for (int h = 0; h < Halves; ++h) rotate_axis(ex[i], ey[i], ez[i], wx[i], wy[i], wz[i], r);
       }
@@ -134,8 +159,49 @@ double drift(Particles &p, long lo, long hi, double arm, double half_dt) {
   return largest;
 }
 
-// Every body [0, count), threads splitting them in team blocks above kParallelBodies.
-double drift_all(Particles &p, std::size_t count, const Shape &shape, double half_dt, int halves) {
+}  // namespace
+
+double drift_block(Particles &p, long lo, long hi, const Shape &shape, double half_dt, int halves) {
+  if (shape.is_sphere())
+    return halves == 2 ? drift<false, 2>(p, lo, hi, half_dt) : drift<false, 1>(p, lo, hi, half_dt);
+  return halves == 2 ? drift<true, 2>(p, lo, hi, half_dt) : drift<true, 1>(p, lo, hi, half_dt);
+}
+
+void refresh_motion(Particles &p, long lo, long hi, const Shape &shape, double half_dt) {
+  const double arm = shape.half_length();
+  const double limit = max_series_w2(half_dt);
+  if (shape.is_sphere()) {
+#pragma omp simd
+    for (long i = lo; i < hi; ++i) motion_constants<false>(p, i, arm, half_dt, limit);
+  } else {
+#pragma omp simd
+    for (long i = lo; i < hi; ++i) motion_constants<true>(p, i, arm, half_dt, limit);
+  }
+}
+
+void refresh_motion(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
+  const long n = static_cast<long>(count);
+#pragma omp parallel num_threads(team_threads(n))
+  {
+    const auto [lo, hi] = team_block(n, omp_get_thread_num(), omp_get_num_threads());
+    refresh_motion(p, lo, hi, shape, half_dt);
+  }
+}
+
+void refresh_motion(Particles &p, const std::vector<std::uint32_t> &bodies, const Shape &shape,
+                    double half_dt) {
+  const double arm = shape.half_length();
+  const double limit = max_series_w2(half_dt);
+  for (const std::uint32_t i : bodies) {
+    if (shape.is_sphere())
+      motion_constants<false>(p, i, arm, half_dt, limit);
+    else
+      motion_constants<true>(p, i, arm, half_dt, limit);
+  }
+}
+
+double free_flight(Particles &p, std::size_t count, const Shape &shape, double half_dt,
+                   int halves) {
   const long n = static_cast<long>(count);
   const int nthreads = team_threads(n);
   std::vector<double> largest(nthreads, 0.0);
@@ -147,23 +213,14 @@ double drift_all(Particles &p, std::size_t count, const Shape &shape, double hal
   return *std::max_element(largest.begin(), largest.end());
 }
 
-}  // namespace
-
-double drift_block(Particles &p, long lo, long hi, const Shape &shape, double half_dt, int halves) {
-  const double arm = shape.half_length();
-  if (shape.is_sphere())
-    return halves == 2 ? drift<false, 2>(p, lo, hi, 0.0, half_dt)
-                       : drift<false, 1>(p, lo, hi, 0.0, half_dt);
-  return halves == 2 ? drift<true, 2>(p, lo, hi, arm, half_dt)
-                     : drift<true, 1>(p, lo, hi, arm, half_dt);
-}
-
 double half_step(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
-  return drift_all(p, count, shape, half_dt, 1);
+  refresh_motion(p, count, shape, half_dt);
+  return free_flight(p, count, shape, half_dt, 1);
 }
 
 double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
-  return drift_all(p, count, shape, half_dt, 2);
+  refresh_motion(p, count, shape, half_dt);
+  return free_flight(p, count, shape, half_dt, 2);
 }
 
 void restore_rotor_constraints(Particles &p, std::size_t count) {

@@ -11,12 +11,22 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "kernels/particles.hpp"
 #include "kernels/shape.hpp"
 
 namespace hardrod {
 
+// The motion constants (Particles::grow, turn_*) of bodies [lo, hi), of bodies [0, count)
+// (threaded), or of the listed bodies, from their velocities as they are now. Due after
+// anything changes a velocity and before the next drift_block of that body; half_step and
+// two_half_steps refresh every body themselves.
+void refresh_motion(Particles &p, long lo, long hi, const Shape &shape, double half_dt);
+void refresh_motion(Particles &p, std::size_t count, const Shape &shape, double half_dt);
+void refresh_motion(Particles &p, const std::vector<std::uint32_t> &bodies, const Shape &shape,
+                    double half_dt);
 // Returns the largest motion bound of the bodies after the half step.
 double half_step(Particles &p, std::size_t count, const Shape &shape, double half_dt);
 
@@ -25,9 +35,14 @@ double half_step(Particles &p, std::size_t count, const Shape &shape, double hal
 // happens between them (no contacts are resolved between the two halves of one pass).
 double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt);
 
+// One or two half steps (`halves`) for bodies [0, count), threads splitting them in team
+// blocks above kParallelBodies, with the motion constants as they are (refresh_motion).
+double free_flight(Particles &p, std::size_t count, const Shape &shape, double half_dt, int halves);
+
 // One or two half steps (`halves`) for bodies [lo, hi) only, with no threads of its own:
 // for a thread of a team that takes the block team_block(...) (particles.hpp), as
-// advance_to_midpoint does. Returns the block's largest motion bound.
+// advance_to_midpoint does. Returns the block's largest motion bound. Reads the bodies'
+// motion constants: they must be current (refresh_motion).
 double drift_block(Particles &p, long lo, long hi, const Shape &shape, double half_dt, int halves);
 
 // Renormalise the axes and remove the component of w along them that rounding introduces

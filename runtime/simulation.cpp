@@ -203,6 +203,13 @@ void Simulation::advance(long long count) {
   const Shape &shape = scene_.shape;
   MidpointDetection reached;
   bool at_midpoint = false;  // the first half of this step is done already
+  // The drift reads each body's motion constants: current from here on, whatever changed the
+  // velocities since the last call. Within the call they follow every change: impulses and
+  // rebuilds (midpoint), the rotor constraints and the thermostat (below).
+  {
+    ScopedRegion r(timers_, Region::kIntegrate);
+    refresh_motion(particles_, advanced(), shape, half_dt);
+  }
   for (long long k = 0; k < count; ++k) {
     // 1. first half: free flight to the midpoint, owned bodies and shadows (and, in the same
     // parallel region, the detection there)
@@ -223,10 +230,12 @@ void Simulation::advance(long long count) {
     if (constrain) {
       ScopedRegion r(timers_, Region::kIntegrate);
       restore_rotor_constraints(particles_, advanced());
+      refresh_motion(particles_, advanced(), shape, half_dt);
     }
     if (thermostat) {
       ScopedRegion r(timers_, Region::kThermostat);
       apply_thermostat();
+      refresh_motion(particles_, advanced(), shape, half_dt);
     }
     if (stop_agreed_) return;
   }
@@ -300,6 +309,22 @@ void Simulation::midpoint(const MidpointDetection &reached) {
       for (std::size_t b = 0; b < clusters.bodies.size(); ++b)
         interval_.multi_contact_bodies += clusters.bodies[b] < owned_ && clusters.degree[b] > 1;
     }
+  }
+  // Velocities that changed: the motion constants follow (all after a rebuild, which
+  // brings bodies and renews the shadows; else the impulses' bodies, here and from others).
+  if (agreed.rebuild) {
+    ScopedRegion r(timers_, Region::kIntegrate);
+    refresh_motion(particles_, advanced(), shape, 0.5 * scene_.dt);
+  } else if (!contacts_.empty() || exchange) {
+    ScopedRegion r(timers_, Region::kResolve);
+    changed_.clear();
+    for (const Contact &c : contacts_) {
+      changed_.push_back(c.i);
+      changed_.push_back(c.j);
+    }
+    changed_.insert(changed_.end(), shared_in_.begin(), shared_in_.end());
+    shared_in_.clear();
+    refresh_motion(particles_, changed_, shape, 0.5 * scene_.dt);
   }
   const CollisionTally tally = tally_collisions(contacts_, counted);
   interval_.steps += 1;
@@ -555,6 +580,7 @@ void Simulation::share_results(const ContactClusters &cc, const std::vector<char
         const std::uint32_t i = it->second;
         particles_.set_velocity(i, {v[0], v[1], v[2]});
         particles_.set_angular_velocity(i, {v[3], v[4], v[5]});
+        shared_in_.push_back(i);  // its motion constants are due (midpoint)
         settled[i] = 1;
       }
       const auto nk = unpack<std::int32_t>(buf, off);

@@ -105,15 +105,17 @@ BENCHMARK(BM_TimeStep)
     ->Unit(benchmark::kMicrosecond);
 
 // The floor: both half steps of free flight and nothing else (separate passes; see
-// BM_IntegrateFused for the one pass per step that a run of steps makes).
+// BM_IntegrateFused for the one pass per step that a run of steps makes). The motion
+// constants are computed once, as between two velocity changes (BM_RefreshMotion).
 void BM_IntegrateOnly(benchmark::State &state) {
   const int halvings = static_cast<int>(state.range(0));
   omp_set_num_threads(1);
   Particles p = relaxed_bodies(halvings);
   const Scene scene = nematic_scene(halvings, 2e-6);
+  refresh_motion(p, p.size(), scene.shape, 1e-6);
   for (auto _ : state) {
-    half_step(p, p.size(), scene.shape, 1e-6);
-    half_step(p, p.size(), scene.shape, 1e-6);
+    free_flight(p, p.size(), scene.shape, 1e-6, 1);
+    free_flight(p, p.size(), scene.shape, 1e-6, 1);
     benchmark::ClobberMemory();
   }
   const double particle_steps = static_cast<double>(p.size()) * state.iterations();
@@ -158,14 +160,35 @@ void BM_IntegrateFused(benchmark::State &state) {
   omp_set_num_threads(static_cast<int>(state.range(1)));
   Particles p = relaxed_bodies(halvings);
   const Scene scene = nematic_scene(halvings, 2e-6);
+  refresh_motion(p, p.size(), scene.shape, 1e-6);
   for (auto _ : state) {
-    two_half_steps(p, p.size(), scene.shape, 1e-6);
+    free_flight(p, p.size(), scene.shape, 1e-6, 2);
     benchmark::ClobberMemory();
   }
   const double particle_steps = static_cast<double>(p.size()) * state.iterations();
   report_particle_steps(state, particle_steps);
 }
 BENCHMARK(BM_IntegrateFused)
+    ->ArgNames({"halvings", "threads"})
+    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
+
+// What a change of every velocity costs the free flight (the thermostat, the rotor
+// constraints, a rebuild): the motion constants of all bodies, per body.
+void BM_RefreshMotion(benchmark::State &state) {
+  const int halvings = static_cast<int>(state.range(0));
+  omp_set_num_threads(static_cast<int>(state.range(1)));
+  Particles p = relaxed_bodies(halvings);
+  const Scene scene = nematic_scene(halvings, 2e-6);
+  for (auto _ : state) {
+    refresh_motion(p, p.size(), scene.shape, 1e-6);
+    benchmark::ClobberMemory();
+  }
+  const double bodies = static_cast<double>(p.size()) * state.iterations();
+  report_particle_steps(state, bodies);
+}
+BENCHMARK(BM_RefreshMotion)
     ->ArgNames({"halvings", "threads"})
     ->ArgsProduct({{0, 1}, {1, 2}})
     ->UseRealTime()
