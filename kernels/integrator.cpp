@@ -39,10 +39,9 @@ struct Rotation {
   double cos_a, sin_over_w, vers_over_w2;
 };
 
-inline Rotation series_rotation(double w2, double h) {
-  const double a2 = w2 * h * h;
-  const double vers = versine_series(a2);  // (1 - cos a) / a^2
-  return {1.0 - a2 * vers, h * sinc_series(a2), h * h * vers};
+// From a2 = (|w| h)^2 and the two series at a2 (stored per body: refresh_motion).
+inline Rotation series_rotation(double a2, double h, double sinc, double vers) {
+  return {1.0 - a2 * vers, h * sinc, h * h * vers};  // vers = (1 - cos a) / a^2
 }
 
 inline Rotation library_rotation(double w2, double h) {
@@ -69,13 +68,9 @@ inline void rotate_axis(double &ex, double &ey, double &ez, double wx, double wy
 
 namespace {
 
-// Spheres (Rotate = false) skip the rotation entirely: a scene pays only for what it uses.
-// Halves = 2 is the second half of one step and the first half of the next in one pass:
-// each half's additions and rotation are applied in turn, so the bits are those of two
-// passes, with one load and store of every body and one square root and rotation series.
-// Bodies [lo, hi), no threads of its own (element-wise: any split gives the same bits).
-// The motion constants of body i (Particles::grow, turn_*): the arithmetic the half step
-// used to do in every pass, unchanged, so the bits are those of before.
+// The motion constants of body i (Particles::grow, turn_*): the costly part of the
+// arithmetic the half step used to do in every pass (two square roots, two series), so the
+// bits are those of before.
 template <bool Rotate>
 inline void motion_constants(Particles &p, long i, double arm, double half_dt,
                              double max_series_w2) {
@@ -85,12 +80,13 @@ inline void motion_constants(Particles &p, long i, double arm, double half_dt,
     // The chord a point at distance L/2 from the centre sweeps is at most L/2 |w| dt/2.
     // A relative 1e-12 on top covers the rounding of this sum and of the rotation.
     p.grow[i] = (speed + arm * std::sqrt(w2)) * half_dt * (1.0 + 1e-12);
-    // A large angle gets the identity here and its rotation in drift's scalar pass.
+    // A large angle gets the identity (a2 = 0, h = 0) and its rotation in drift's scalar
+    // pass.
     const bool series = w2 <= max_series_w2;
-    const Rotation r = series_rotation(series ? w2 : 0.0, series ? half_dt : 0.0);
-    p.turn_cos[i] = r.cos_a;
-    p.turn_sin[i] = r.sin_over_w;
-    p.turn_vers[i] = r.vers_over_w2;
+    const double h = series ? half_dt : 0.0;
+    const double a2 = (series ? w2 : 0.0) * h * h;
+    p.turn_sinc[i] = sinc_series(a2);
+    p.turn_vers[i] = versine_series(a2);
   } else {
     p.grow[i] = speed * half_dt * (1.0 + 1e-12);
   }
@@ -112,8 +108,7 @@ double drift(Particles &p, long lo, long hi, double half_dt) {
                            *__restrict vz = p.vz.data();
   const double *__restrict wx = p.wx.data(), *__restrict wy = p.wy.data(),
                            *__restrict wz = p.wz.data();
-  const double *__restrict grow = p.grow.data(), *__restrict turn_cos = p.turn_cos.data(),
-                           *__restrict turn_sin = p.turn_sin.data(),
+  const double *__restrict grow = p.grow.data(), *__restrict turn_sinc = p.turn_sinc.data(),
                            *__restrict turn_vers = p.turn_vers.data();
   double *__restrict bound = p.motion_bound.data();
   const double largest_series_w2 = max_series_w2(half_dt);
@@ -127,8 +122,13 @@ double drift(Particles &p, long lo, long hi, double half_dt) {
     const double gi = grow[i];
     if constexpr (Rotate) {
       const double w2 = wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
-      large_angles += w2 <= largest_series_w2 ? 0 : 1;
-      const Rotation r{turn_cos[i], turn_sin[i], turn_vers[i]};
+      // Branch-free so the loop vectorises: a large angle gets the identity here and its
+      // rotation in the scalar pass below.
+      const bool series = w2 <= largest_series_w2;
+      large_angles += series ? 0 : 1;
+      const double h = series ? half_dt : 0.0;
+      const Rotation r =
+          series_rotation((series ? w2 : 0.0) * h * h, h, turn_sinc[i], turn_vers[i]);
       double exi = ex[i], eyi = ey[i], ezi = ez[i];
       for (int h = 0; h < Halves; ++h) rotate_axis(exi, eyi, ezi, wx[i], wy[i], wz[i], r);
       ex[i] = exi;

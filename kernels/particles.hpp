@@ -45,15 +45,16 @@ struct Particles {
   // built (translation plus half length times rotation). Drives the lazy pair checks.
   std::vector<double> motion_bound;
   // Constants of each body's free flight (refresh_motion, integrator.hpp): how much its
-  // motion bound grows per half step, and its half step's rotation. Functions of v, w, the
-  // shape and the half step only, so they are computed when a velocity changes instead of
-  // in every half step (two square roots and two series per body); drift_block reads them.
-  std::vector<double> grow, turn_cos, turn_sin, turn_vers;
+  // motion bound grows per half step, and the two series of its half step's rotation.
+  // Functions of v, w, the shape and the half step only, so they are computed when a
+  // velocity changes instead of in every half step (two square roots and two series per
+  // body); drift_block reads them.
+  std::vector<double> grow, turn_sinc, turn_vers;
 
   std::size_t size() const { return id.size(); }
   void resize(std::size_t n) {
     for (auto *v : {&x, &y, &z, &ex, &ey, &ez, &vx, &vy, &vz, &wx, &wy, &wz, &motion_bound, &grow,
-                    &turn_cos, &turn_sin, &turn_vers})
+                    &turn_sinc, &turn_vers})
       v->resize(n, 0.0);
     id.resize(n, 0);
   }
@@ -63,7 +64,7 @@ struct Particles {
   void permute(const std::vector<std::uint32_t> &order) {
     std::vector<double> scratch(order.size());
     for (auto *v : {&x, &y, &z, &ex, &ey, &ez, &vx, &vy, &vz, &wx, &wy, &wz, &motion_bound, &grow,
-                    &turn_cos, &turn_sin, &turn_vers}) {
+                    &turn_sinc, &turn_vers}) {
       for (std::size_t k = 0; k < order.size(); ++k) scratch[k] = (*v)[order[k]];
       std::copy(scratch.begin(), scratch.end(), v->begin());
     }
