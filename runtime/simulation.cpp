@@ -303,6 +303,16 @@ void Simulation::midpoint(const MidpointDetection &reached) {
       // Each contact is counted once in the whole system: by the owner of its lower id.
       for (std::size_t k = 0; k < contacts_.size(); ++k) counted[k] = contacts_[k].i < owned_;
     }
+    if (!agreed.rebuild) {  // the bodies of the impulses, here and from other ranks
+      changed_.clear();
+      for (const Contact &c : contacts_) {
+        changed_.push_back(c.i);
+        changed_.push_back(c.j);
+      }
+      changed_.insert(changed_.end(), shared_in_.begin(), shared_in_.end());
+      refresh_motion(particles_, changed_, shape, 0.5 * scene_.dt);
+    }
+    shared_in_.clear();
     if (comm_.size() == 1) {
       interval_.multi_contact_bodies += clusters.multi_contact_bodies;
     } else {  // owned bodies only: their contacts are all seen here, each counted once
@@ -311,20 +321,10 @@ void Simulation::midpoint(const MidpointDetection &reached) {
     }
   }
   // Velocities that changed: the motion constants follow (all after a rebuild, which
-  // brings bodies and renews the shadows; else the impulses' bodies, here and from others).
+  // brings bodies and renews the shadows; else the impulses' bodies, in resolve above).
   if (agreed.rebuild) {
     ScopedRegion r(timers_, Region::kIntegrate);
     refresh_motion(particles_, advanced(), shape, 0.5 * scene_.dt);
-  } else if (!contacts_.empty() || exchange) {
-    ScopedRegion r(timers_, Region::kResolve);
-    changed_.clear();
-    for (const Contact &c : contacts_) {
-      changed_.push_back(c.i);
-      changed_.push_back(c.j);
-    }
-    changed_.insert(changed_.end(), shared_in_.begin(), shared_in_.end());
-    shared_in_.clear();
-    refresh_motion(particles_, changed_, shape, 0.5 * scene_.dt);
   }
   const CollisionTally tally = tally_collisions(contacts_, counted);
   interval_.steps += 1;
