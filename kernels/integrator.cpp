@@ -192,12 +192,10 @@ void refresh_motion(Particles &p, const std::vector<std::uint32_t> &bodies, cons
                     double half_dt) {
   const double arm = shape.half_length();
   const double limit = max_series_w2(half_dt);
-  for (const std::uint32_t i : bodies) {
-    if (shape.is_sphere())
-      motion_constants<false>(p, i, arm, half_dt, limit);
-    else
-      motion_constants<true>(p, i, arm, half_dt, limit);
-  }
+  if (shape.is_sphere())
+    for (const std::uint32_t i : bodies) motion_constants<false>(p, i, arm, half_dt, limit);
+  else
+    for (const std::uint32_t i : bodies) motion_constants<true>(p, i, arm, half_dt, limit);
 }
 
 double free_flight(Particles &p, std::size_t count, const Shape &shape, double half_dt,

@@ -13,6 +13,8 @@
 #include <fstream>
 #include <numeric>
 
+#include "runtime/body_wire.hpp"
+
 namespace hardrod {
 
 namespace {
@@ -314,13 +316,6 @@ std::uint64_t body_hash(const Particles &p) {
 
 namespace {
 
-// The twelve numbers a checkpoint row holds after the id, in that order.
-template <typename Bodies>
-auto row_fields(Bodies &p) {
-  return std::array{&p.x,  &p.y,  &p.z,  &p.ex, &p.ey, &p.ez,
-                    &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz};
-}
-
 // The rows each rank writes, as one block of ids: every body goes to the rank whose block
 // [r n / P, (r + 1) n / P) holds its id (one message to every other rank, at a checkpoint
 // only). HDF5 then selects one hyperslab per rank. Rows as they fall after migration are
@@ -329,21 +324,11 @@ auto row_fields(Bodies &p) {
 Particles rows_by_id_block(Communicator &comm, const Particles &owned, std::size_t count,
                            long long n) {
   const int ranks = comm.size();
-  constexpr std::size_t kRowBytes = sizeof(std::int64_t) + 12 * sizeof(double);
-  const auto from = row_fields(owned);
   std::vector<std::vector<char>> out(static_cast<std::size_t>(ranks));
   for (std::size_t i = 0; i < count; ++i) {
     const long long id = owned.id[i];
     const int r = id >= 0 && id < n ? static_cast<int>(id * ranks / n) : comm.rank();
-    std::vector<char> &buf = out[static_cast<std::size_t>(r)];
-    std::size_t at = buf.size();
-    buf.resize(at + kRowBytes);
-    std::memcpy(buf.data() + at, &owned.id[i], sizeof(std::int64_t));
-    at += sizeof(std::int64_t);
-    for (const auto *f : from) {
-      std::memcpy(buf.data() + at, &(*f)[i], sizeof(double));
-      at += sizeof(double);
-    }
+    pack_body(out[static_cast<std::size_t>(r)], owned, i);
   }
   std::vector<int> partners;
   std::vector<std::vector<char>> outgoing;
@@ -355,20 +340,12 @@ Particles rows_by_id_block(Communicator &comm, const Particles &owned, std::size
   std::vector<std::vector<char>> incoming = comm.exchange("checkpoint", partners, outgoing);
   incoming.push_back(std::move(out[static_cast<std::size_t>(comm.rank())]));
   std::size_t rows = 0;
-  for (const auto &buf : incoming) rows += buf.size() / kRowBytes;
+  for (const auto &buf : incoming) rows += buf.size() / kBodyBytes;
   Particles mine;
   mine.resize(rows);
-  const auto to = row_fields(mine);
   std::size_t k = 0;
   for (const auto &buf : incoming)
-    for (std::size_t off = 0; off + kRowBytes <= buf.size(); ++k) {
-      std::memcpy(&mine.id[k], buf.data() + off, sizeof(std::int64_t));
-      off += sizeof(std::int64_t);
-      for (auto *f : to) {
-        std::memcpy(&(*f)[k], buf.data() + off, sizeof(double));
-        off += sizeof(double);
-      }
-    }
+    for (std::size_t off = 0; off < buf.size(); ++k) unpack_body_at(buf, off, mine, k);
   return mine;
 }
 

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <numeric>
 #include <stdexcept>
 
@@ -16,54 +15,13 @@
 #include "kernels/isotropic_start.hpp"
 #include "kernels/order_tensor.hpp"
 #include "kernels/thermostat.hpp"
+#include "runtime/body_wire.hpp"
 #include "runtime/checkpoint.hpp"
 #include "runtime/snapshot.hpp"
 
 namespace hardrod {
 
 namespace {
-
-// A body on the wire: id and the 12 doubles of its state (the motion bound restarts at 0
-// with every rebuild, so it does not travel).
-// A body on the wire: its id and twelve doubles (position, axis, velocity, angular velocity).
-constexpr std::size_t kBodyBytes = sizeof(std::int64_t) + 12 * sizeof(double);
-
-void pack_body(std::vector<char> &buf, const Particles &p, std::size_t i) {
-  const std::size_t at = buf.size();
-  buf.resize(at + kBodyBytes);
-  char *out = buf.data() + at;
-  std::memcpy(out, &p.id[i], sizeof(std::int64_t));
-  out += sizeof(std::int64_t);
-  for (const auto *f :
-       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
-    std::memcpy(out, &(*f)[i], sizeof(double));
-    out += sizeof(double);
-  }
-}
-
-// Into slot i of bodies already sized.
-void unpack_body_at(const std::vector<char> &buf, std::size_t &off, Particles &p, std::size_t i) {
-  if (off + kBodyBytes > buf.size())
-    throw std::logic_error(fmt::format("unpack_body: {} bytes left at offset {}, a body needs {}",
-                                       buf.size() - off, off, kBodyBytes));
-  const char *in = buf.data() + off;
-  std::memcpy(&p.id[i], in, sizeof(std::int64_t));
-  in += sizeof(std::int64_t);
-  for (auto *f :
-       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
-    std::memcpy(&(*f)[i], in, sizeof(double));
-    in += sizeof(double);
-  }
-  p.motion_bound[i] = 0.0;
-  off += kBodyBytes;
-}
-
-// Appended after the bodies already there.
-void unpack_body(const std::vector<char> &buf, std::size_t &off, Particles &p) {
-  const std::size_t i = p.size();
-  p.resize(i + 1);
-  unpack_body_at(buf, off, p, i);
-}
 
 // Global axis moments from the first six of a rank-summed list (xx, xy, xz, yy, yz, zz).
 AxisMoments moments_from(const std::vector<ExactSum> &sums, long long n) {
@@ -224,6 +182,9 @@ void Simulation::advance(long long count) {
     if (at_midpoint) {
       reached = to_midpoint(2);
     } else {
+      // half_step refreshes every body's motion constants itself: a step() at a time so
+      // does not depend on the refreshes within a burst, and the tests compare the two
+      // (one refresh of all bodies per burst, ~2 ns per body).
       ScopedRegion r(timers_, Region::kIntegrate);
       half_step(particles_, advanced(), shape, half_dt);
     }

@@ -1,0 +1,58 @@
+// A body on the wire, between ranks (migration, shadows, gathers) and in a checkpoint's
+// rows: its id and the twelve doubles of its state (position, axis, velocity, angular
+// velocity). The motion bound restarts at 0 with every rebuild and the motion constants
+// are refreshed on arrival, so neither travels.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+#include "kernels/particles.hpp"
+
+namespace hardrod {
+
+inline constexpr std::size_t kBodyBytes = sizeof(std::int64_t) + 12 * sizeof(double);
+
+inline void pack_body(std::vector<char> &buf, const Particles &p, std::size_t i) {
+  const std::size_t at = buf.size();
+  buf.resize(at + kBodyBytes);
+  char *out = buf.data() + at;
+  std::memcpy(out, &p.id[i], sizeof(std::int64_t));
+  out += sizeof(std::int64_t);
+  for (const auto *f :
+       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
+    std::memcpy(out, &(*f)[i], sizeof(double));
+    out += sizeof(double);
+  }
+}
+
+// Into slot i of bodies already sized.
+inline void unpack_body_at(const std::vector<char> &buf, std::size_t &off, Particles &p,
+                           std::size_t i) {
+  if (off + kBodyBytes > buf.size())
+    throw std::logic_error(fmt::format("unpack_body: {} bytes left at offset {}, a body needs {}",
+                                       buf.size() - off, off, kBodyBytes));
+  const char *in = buf.data() + off;
+  std::memcpy(&p.id[i], in, sizeof(std::int64_t));
+  in += sizeof(std::int64_t);
+  for (auto *f :
+       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
+    std::memcpy(&(*f)[i], in, sizeof(double));
+    in += sizeof(double);
+  }
+  p.motion_bound[i] = 0.0;
+  off += kBodyBytes;
+}
+
+// Appended after the bodies already there.
+inline void unpack_body(const std::vector<char> &buf, std::size_t &off, Particles &p) {
+  const std::size_t i = p.size();
+  p.resize(i + 1);
+  unpack_body_at(buf, off, p, i);
+}
+
+}  // namespace hardrod
