@@ -27,11 +27,29 @@ int cell_coordinate(double c, double side, int cells) {
 }  // namespace
 
 void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
-                     double reach) {
+                     double reach, bool by_occupancy) {
   const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
   int k = 2;  // cells per reach
   for (int a = 0; a < 3; ++a)
     if (std::floor(side[a] / (reach / 2)) < 5) k = 1;
+  if (k == 2 && by_occupancy && count > 0) {
+    // Bodies per occupied cell of one cell per reach (occupied: a rank holds only its
+    // subdomain and halo of the box).
+    std::array<int, 3> n{};
+    for (int a = 0; a < 3; ++a) n[a] = std::max(1, static_cast<int>(std::floor(side[a] / reach)));
+    std::vector<char> seen(static_cast<std::size_t>(n[0]) * n[1] * n[2], 0);
+    std::size_t occupied = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::size_t c =
+          (static_cast<std::size_t>(cell_coordinate(p.z[i], side[2], n[2])) * n[1] +
+           cell_coordinate(p.y[i], side[1], n[1])) *
+              n[0] +
+          cell_coordinate(p.x[i], side[0], n[0]);
+      occupied += !seen[c];
+      seen[c] = 1;
+    }
+    if (count < 16 * occupied) k = 1;
+  }
   for (int a = 0; a < 3; ++a)
     list.cells[a] = std::max(1, static_cast<int>(std::floor(side[a] / (reach / k))));
 

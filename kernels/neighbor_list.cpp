@@ -61,7 +61,7 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   const double h = shape.half_length();
   const bool rods = !shape.is_sphere();
   const double prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
-  build_cell_list(list.cells, p, count, box, centre_reach);
+  build_cell_list(list.cells, p, count, box, centre_reach, true);
   // Bodies sorted by cell (owned ones first): neighbours in space are neighbours in memory
   // for every later pass. Ids travel with the bodies. The cell list is then rebuilt on the
   // new order; with one rank a cell's bodies are one contiguous index range.
@@ -73,7 +73,7 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
     for (std::uint32_t b : list.cells.order)
       if (b >= owned) perm.push_back(b);
     p.permute(perm);
-    build_cell_list(list.cells, p, count, box, centre_reach);
+    build_cell_list(list.cells, p, count, box, centre_reach, true);
   }
   const CellList &cl = list.cells;
   const std::uint32_t *member = cl.order.data();
@@ -124,6 +124,8 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
     // blocks, two threads detected no faster than one).
 #pragma omp for schedule(static)
     for (int c = 0; c < cl.cell_count(); ++c) {
+      // An empty cell has no pairs to start (in a gas, or the box beyond a rank's halo).
+      if (cl.cell_start[c + 1] == cl.cell_start[c]) continue;
       const int cx = c % cl.cells[0];
       const int cy = (c / cl.cells[0]) % cl.cells[1];
       const int cz = c / (cl.cells[0] * cl.cells[1]);

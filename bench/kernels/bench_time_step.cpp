@@ -221,5 +221,38 @@ BENCHMARK(BM_NeighborBuild)
     ->UseRealTime()
     ->Unit(benchmark::kMicrosecond);
 
+// The broad phase of hard spheres on their lattice (20^3 = 8000): a dense fluid's density
+// (packing fraction 0.45) and a dilute gas's (0.05), where most cells are empty. Per body.
+void BM_NeighborBuildSpheres(benchmark::State &state) {
+  const double eta = state.range(0) == 0 ? 0.45 : 0.05;
+  omp_set_num_threads(static_cast<int>(state.range(1)));
+  Scene scene;
+  scene.shape_name = "sphere";
+  scene.shape.length = 0.0;
+  scene.lattice = {20, 20, 20};
+  scene.n = 8000;
+  const double side = std::cbrt(8000.0 * scene.shape.volume() / eta);
+  scene.box.length = {side, side, side};
+  const Particles lattice = initial_bodies(scene);
+  NeighborList list;
+  list.skin = scene.skin;
+  for (auto _ : state) {
+    state.PauseTiming();
+    Particles p = lattice;
+    state.ResumeTiming();
+    build_neighbor_list(list, p, p.size(), scene.box, scene.shape);
+    benchmark::DoNotOptimize(list.pairs.data());
+  }
+  state.counters["ns_per_body"] =
+      benchmark::Counter(8000.0 * 1e-9 * static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["pairs_per_body"] = static_cast<double>(list.pair_count()) / 8000.0;
+}
+BENCHMARK(BM_NeighborBuildSpheres)
+    ->ArgNames({"dilute", "threads"})
+    ->ArgsProduct({{0, 1}, {1}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
+
 }  // namespace
 }  // namespace hardrod
