@@ -1,9 +1,11 @@
 #include "runtime/domain.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace hardrod {
 
@@ -28,9 +30,33 @@ double side_of(const Box &box, int a) {
 
 }  // namespace
 
+Cuts Domain::uniform_cuts(const Box &box, std::array<int, 3> grid) {
+  Cuts cuts;
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k <= grid[a]; ++k)  // exactly the side at the end (side g / g may not be)
+      cuts[a].push_back(k == grid[a] ? side_of(box, a) : side_of(box, a) * k / grid[a]);
+  return cuts;
+}
+
 Domain::Domain(const Box &box, std::array<int, 3> grid, int rank, double shadow_reach,
-               double partner_reach)
-    : box_(box), grid_(grid), rank_(rank), shadow_reach_(shadow_reach) {
+               double partner_reach, Cuts cuts)
+    : box_(box),
+      grid_(grid),
+      rank_(rank),
+      shadow_reach_(shadow_reach),
+      partner_reach_(partner_reach),
+      cuts_(cuts[0].empty() ? uniform_cuts(box, grid) : std::move(cuts)) {
+  for (int a = 0; a < 3; ++a) {
+    const auto &c = cuts_[a];
+    bool ok = c.size() == static_cast<std::size_t>(grid_[a]) + 1 && c.front() == 0.0 &&
+              c.back() == side_of(box_, a);
+    for (std::size_t k = 1; ok && k < c.size(); ++k) ok = c[k] > c[k - 1];
+    if (!ok)
+      throw std::invalid_argument(fmt::format(
+          "Domain: the cuts along axis {} must rise from 0 to the box side {} in {} steps, got "
+          "[{}]",
+          a, side_of(box_, a), grid_[a], fmt::join(c, ", ")));
+  }
   const auto lo = lower(rank_), hi = upper(rank_);
   for (int r = 0; r < ranks(); ++r) {
     if (r == rank_) continue;
@@ -50,14 +76,14 @@ std::array<int, 3> Domain::coords(int r) const {
 std::array<double, 3> Domain::lower(int r) const {
   const auto c = coords(r);
   std::array<double, 3> out{};
-  for (int a = 0; a < 3; ++a) out[a] = side_of(box_, a) * c[a] / grid_[a];
+  for (int a = 0; a < 3; ++a) out[a] = cuts_[a][static_cast<std::size_t>(c[a])];
   return out;
 }
 
 std::array<double, 3> Domain::upper(int r) const {
   const auto c = coords(r);
   std::array<double, 3> out{};
-  for (int a = 0; a < 3; ++a) out[a] = side_of(box_, a) * (c[a] + 1) / grid_[a];
+  for (int a = 0; a < 3; ++a) out[a] = cuts_[a][static_cast<std::size_t>(c[a]) + 1];
   return out;
 }
 
@@ -66,13 +92,10 @@ int Domain::owner_of(const Vec3 &p) const {
   const double x[3] = {folded.x, folded.y, folded.z};
   int c[3];
   for (int a = 0; a < 3; ++a) {
-    // Same rule as lower()/upper(): cell k covers [side k / g, side (k+1) / g).
-    const double side = side_of(box_, a);
-    int k = static_cast<int>(std::floor(x[a] / side * grid_[a]));
-    k = std::clamp(k, 0, grid_[a] - 1);
-    if (x[a] < side * k / grid_[a] && k > 0) --k;
-    if (k + 1 < grid_[a] && x[a] >= side * (k + 1) / grid_[a]) ++k;
-    c[a] = k;
+    // Same rule as lower()/upper(): slab k covers [cuts[k], cuts[k + 1]).
+    const auto &cut = cuts_[a];
+    const auto above = std::upper_bound(cut.begin() + 1, cut.end() - 1, x[a]);
+    c[a] = static_cast<int>(above - cut.begin()) - 1;
   }
   return (c[2] * grid_[1] + c[1]) * grid_[0] + c[0];
 }
@@ -92,11 +115,20 @@ bool Domain::reaches(const Vec3 &centre, const Vec3 &axis, double h, int r) cons
 }
 
 std::string Domain::describe() const {
+  std::string widths;
+  for (int a = 0; a < 3; ++a) {
+    double lo = side_of(box_, a), hi = 0.0;
+    for (std::size_t k = 1; k < cuts_[a].size(); ++k) {
+      lo = std::min(lo, cuts_[a][k] - cuts_[a][k - 1]);
+      hi = std::max(hi, cuts_[a][k] - cuts_[a][k - 1]);
+    }
+    widths += (a ? " x " : "") + (hi - lo > 1e-9 * hi ? fmt::format("{:.3f}-{:.3f}", lo, hi)
+                                                      : fmt::format("{:.3f}", hi));
+  }
   return fmt::format(
-      "{} x {} x {} ranks, subdomain {:.3f} x {:.3f} x {:.3f}, shadows within {:.3f} of the "
-      "subdomain (axis segment), {} partners",
-      grid_[0], grid_[1], grid_[2], box_.length.x / grid_[0], box_.length.y / grid_[1],
-      box_.length.z / grid_[2], shadow_reach_, partners_.size());
+      "{} x {} x {} ranks, subdomain {}, shadows within {:.3f} of the subdomain (axis "
+      "segment), {} partners",
+      grid_[0], grid_[1], grid_[2], widths, shadow_reach_, partners_.size());
 }
 
 }  // namespace hardrod

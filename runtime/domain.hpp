@@ -1,7 +1,9 @@
 // Domain decomposition: the periodic box cut into a 3D grid of subdomains, one per rank
-// (rank = (cz * dy + cy) * dx + cx). A rank owns the bodies whose centres lie in its
-// subdomain (checked at every neighbour-list rebuild, when bodies migrate) and holds
-// shadow copies of every body whose axis segment comes within `shadow_reach` of it.
+// (rank = (cz * dy + cy) * dx + cx). Along each axis the grid's cuts are shared by a whole
+// slab of ranks (a staggered-free "shifted grid"): uniform at start, moved by the load
+// balancer (runtime/balance.hpp), so the partners stay grid neighbours. A rank owns the bodies
+// whose centres lie in its subdomain (checked at every neighbour-list rebuild, when bodies migrate)
+// and holds shadow copies of every body whose axis segment comes within `shadow_reach` of it.
 // Partners are the ranks whose subdomains lie within `partner_reach`: every rank that can
 // share a body or a contact cluster.
 #pragma once
@@ -15,16 +17,24 @@
 
 namespace hardrod {
 
+// Cut positions per axis: grid[a] + 1 increasing values from 0 to the box side.
+using Cuts = std::array<std::vector<double>, 3>;
+
 class Domain {
  public:
   Domain() = default;
+  // `cuts` empty: uniform (side k / grid[a]).
   Domain(const Box &box, std::array<int, 3> grid, int rank, double shadow_reach,
-         double partner_reach);
+         double partner_reach, Cuts cuts = {});
+  static Cuts uniform_cuts(const Box &box, std::array<int, 3> grid);
 
   int rank() const { return rank_; }
   int ranks() const { return grid_[0] * grid_[1] * grid_[2]; }
   const std::array<int, 3> &grid() const { return grid_; }
   double shadow_reach() const { return shadow_reach_; }
+  double partner_reach() const { return partner_reach_; }
+  const Cuts &cuts() const { return cuts_; }
+  const Box &box() const { return box_; }
   const std::vector<int> &partners() const { return partners_; }
 
   // Rank whose subdomain contains the (folded) centre p.
@@ -45,6 +55,8 @@ class Domain {
   std::array<int, 3> grid_{1, 1, 1};
   int rank_ = 0;
   double shadow_reach_ = 0.0;
+  double partner_reach_ = 0.0;
+  Cuts cuts_;
   std::vector<int> partners_;
 };
 

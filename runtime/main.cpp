@@ -40,6 +40,7 @@ int main(int argc, char **argv) {
   run->add_flag("--force", options.force, "overwrite an existing run in the output directory");
   bool no_bind = false;
   std::string grid;
+  std::string balance = "time";
   // The options of a process that steps a simulation: the same for run and resume.
   const auto add_execution_options = [&](CLI::App *cmd) {
     cmd->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
@@ -57,6 +58,17 @@ int main(int argc, char **argv) {
             return "--grid must look like 2x2x1 (three positive integers), got '" + g + "'";
           return std::string();
         });
+    cmd->add_option("--balance", balance,
+                    "move the subdomain cuts so the ranks carry equal loads: time (measured "
+                    "compute time, default), bodies (advanced bodies, deterministic) or off")
+        ->check([](const std::string &m) {
+          return m == "off" || m == "bodies" || m == "time"
+                     ? std::string()
+                     : "--balance must be off, bodies or time, got '" + m + "'";
+        });
+    cmd->add_option("--balance-interval", options.parallel.balance.interval,
+                    "steps between load comparisons (default 1000)")
+        ->check(CLI::PositiveNumber);
   };
   add_execution_options(run);
 
@@ -135,6 +147,7 @@ int main(int argc, char **argv) {
   if (threads > 0) omp_set_num_threads(threads);
   options.quiet = quiet;
   options.bind = !no_bind;
+  options.parallel.balance.mode = hardrod::parse_balance_mode(balance);
   if (!grid.empty())
     std::sscanf(grid.c_str(), "%dx%dx%d", &options.parallel.grid[0], &options.parallel.grid[1],
                 &options.parallel.grid[2]);

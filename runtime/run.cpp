@@ -593,6 +593,17 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
       {"ns_per_particle_step", particle_steps > 0 ? 1e9 * wall / particle_steps : 0.0},
       {"ranks", comm.size()},
       {"grid", sim.domain().grid()},
+      {"balance",
+       {{"mode", balance_mode_name(sim.balance_options().mode)},
+        {"interval", sim.balance_options().interval},
+        {"threshold", sim.balance_options().threshold},
+        {"checks", sim.balance_record().checks},
+        {"shifts", sim.balance_record().shifts},
+        {"forced_rebuilds", sim.balance_record().forced_rebuilds},
+        {"first_imbalance", sim.balance_record().first_imbalance},
+        {"last_imbalance", sim.balance_record().last_imbalance},
+        {"max_imbalance", sim.balance_record().max_imbalance},
+        {"cuts", sim.domain().cuts()}}},
       {"threads", omp_get_max_threads()},
       {"topology", topology.description},
       {"binding", binding},
@@ -637,7 +648,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   const double rank_steps =
       static_cast<double>(comm.size()) * std::max<long long>(1, steps_done - first_step);
   for (const char *name : {"agree", "migrate", "shadows", "degrees", "results", "observe",
-                           "kinetic_energy", "checkpoint"}) {
+                           "kinetic_energy", "checkpoint", "balance"}) {
     const auto it = comm.traffic().find(name);
     const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
     const long long messages = comm.sum("summary", c.messages);
@@ -667,6 +678,18 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   if (!quiet) {
     fmt::print("\n{}", sim.timers().table(particle_steps));
     fmt::print("counters: {}\n", counters.report());
+    if (comm.size() > 1) {
+      const BalanceRecord &b = sim.balance_record();
+      if (sim.balance_options().mode == BalanceMode::kOff)
+        fmt::print("load balance: off (--balance off)\n");
+      else
+        fmt::print(
+            "load balance ({}): {} checks, {} shifts of the cuts ({} with a rebuild of their "
+            "own); busiest rank above the mean by {:.1f} % at the first check, {:.1f} % at the "
+            "last\n",
+            balance_mode_name(sim.balance_options().mode), b.checks, b.shifts, b.forced_rebuilds,
+            100 * b.first_imbalance, 100 * b.last_imbalance);
+    }
     auto pm = [](const Estimate &e) {
       return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
                                     : fmt::format("{:.4f} (no error: too few samples)", e.mean);

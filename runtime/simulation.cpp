@@ -98,6 +98,10 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
   solver_.tolerance = scene_.solver_tolerance;
   solver_.max_iterations = static_cast<int>(scene_.solver_max_iterations);
 
+  balance_ = parallel.balance;
+  if (balance_.interval < 1)
+    throw SceneError(
+        {fmt::format("--balance-interval must be at least 1, got {}", balance_.interval)});
   std::array<int, 3> grid = parallel.grid;
   if (grid[0] * grid[1] * grid[2] == 0) {
     grid = comm_.make_grid({0, 0, 0});  // non-increasing counts
@@ -199,6 +203,8 @@ void Simulation::advance(long long count) {
       refresh_motion(particles_, advanced(), shape, half_dt);
     }
     if (stop_agreed_) return;
+    if (balance_.mode != BalanceMode::kOff && comm_.size() > 1 && step_ % balance_.interval == 0)
+      check_balance();
   }
 }
 
@@ -235,7 +241,12 @@ void Simulation::midpoint(const MidpointDetection &reached) {
     detected = reached.detected ? reached.stats : detect();
     boundary = touches_boundary();
   }
-  const Agreement agreed = agree(largest_bound, boundary);
+  Agreement agreed = agree(largest_bound, boundary);
+  if (force_rebuild_) {  // new cuts (check_balance; the same decision on every rank)
+    agreed.rebuild = true;
+    force_rebuild_ = false;
+    ++balanced_.forced_rebuilds;
+  }
   if (agreed.rebuild) {
     rebuild();
     detected = detect();  // a problem is reported at the next step's agreement
@@ -322,6 +333,31 @@ Simulation::Agreement Simulation::agree(double largest_bound, bool boundary) {
 
 void Simulation::rebuild() {
   ScopedRegion r(timers_, Region::kNeighborBuild);
+  if (!pending_cuts_[0].empty()) {
+    // New cuts (check_balance), reached in stages that move no cut more than half the
+    // partner reach: then every body's new owner is a partner (it is within that distance
+    // plus its motion since the last rebuild, < skin, of its old subdomain), and each stage
+    // migrates the bodies.
+    const Cuts from = domain_.cuts(), to = std::move(pending_cuts_);
+    pending_cuts_ = {};
+    double most = 0.0;
+    for (int a = 0; a < 3; ++a)
+      for (std::size_t k = 0; k < to[a].size(); ++k)
+        most = std::max(most, std::fabs(to[a][k] - from[a][k]));
+    const int stages =
+        std::max(1, static_cast<int>(std::ceil(most / (0.5 * domain_.partner_reach()))));
+    for (int s = 1; s <= stages; ++s) {
+      Cuts cuts = to;
+      if (s < stages)
+        for (int a = 0; a < 3; ++a)
+          for (std::size_t k = 1; k + 1 < to[a].size(); ++k)
+            cuts[a][k] = from[a][k] + (to[a][k] - from[a][k]) * s / stages;
+      domain_ = Domain(scene_.box, domain_.grid(), comm_.rank(), domain_.shadow_reach(),
+                       domain_.partner_reach(), std::move(cuts));
+      if (s < stages && comm_.size() > 1) migrate();  // the last stage migrates below
+    }
+    ++balanced_.shifts;
+  }
   if (comm_.size() > 1) redistribute();
   build_neighbor_list(list_, particles_, particles_.size(), owned_, scene_.box, scene_.shape);
   index_bodies();
@@ -377,15 +413,70 @@ void Simulation::report_problems(const std::vector<double> &flags) {
         static_cast<long long>(flags[3]), static_cast<long long>(flags[2]), scene_.dt));
 }
 
-// Migration of bodies that left the subdomain, then fresh shadow copies for every partner
-// within the halo, each carrying the list of ranks that hold it.
-void Simulation::redistribute() {
+void Simulation::check_balance() {
+  const auto &grid = domain_.grid();
+  double load = static_cast<double>(advanced());
+  if (balance_.mode == BalanceMode::kTime) {
+    // Compute time: the free flight and the detection, ~90 % of a step and free of waits
+    // for other ranks (list builds, the thermostat and resolution include exchanges).
+    const double busy = timers_.seconds(Region::kIntegrate) + timers_.seconds(Region::kDetect);
+    load = std::max(0.0, busy - busy_mark_);
+    busy_mark_ = busy;
+  }
+  // Loads per slab along each axis, and in all: exact sums, so every rank gets the same bits
+  // and computes the same cuts.
+  const int r = comm_.rank();
+  const int c[3] = {r % grid[0], (r / grid[0]) % grid[1], r / (grid[0] * grid[1])};
+  std::vector<ExactSum> sums(static_cast<std::size_t>(grid[0] + grid[1] + grid[2]) + 1);
+  sums[static_cast<std::size_t>(c[0])].add(load);
+  sums[static_cast<std::size_t>(grid[0] + c[1])].add(load);
+  sums[static_cast<std::size_t>(grid[0] + grid[1] + c[2])].add(load);
+  sums.back().add(load);
+  sums = comm_.sum("balance", sums);
+  const double builds =
+      static_cast<double>(std::max<std::int64_t>(1, timers_.calls(Region::kNeighborBuild)));
+  const std::vector<double> most =
+      comm_.max("balance", {load, timers_.seconds(Region::kNeighborBuild) / builds});
+  const double mean = sums.back().value() / comm_.size();
+  if (!(mean > 0.0)) return;
+  const double imbalance = most[0] / mean - 1.0;
+  if (balanced_.checks == 0) balanced_.first_imbalance = imbalance;
+  ++balanced_.checks;
+  balanced_.last_imbalance = imbalance;
+  balanced_.max_imbalance = std::max(balanced_.max_imbalance, imbalance);
+  if (!(imbalance > balance_.threshold)) return;
+
+  Cuts cuts = domain_.cuts();
+  bool moved = false;
+  int first = 0;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> loads;
+    for (int k = 0; k < grid[a]; ++k)
+      loads.push_back(sums[static_cast<std::size_t>(first + k)].value());
+    first += grid[a];
+    if (grid[a] < 2) continue;
+    const double side = cuts[a].back();
+    // Slabs no thinner than half the even share (more partners, more shadows). The rebuild
+    // moves the cuts in stages (rebuild()), so any shift is allowed.
+    const auto next = balanced_cuts(cuts[a], loads, 0.5 * side / grid[a], side);
+    for (std::size_t k = 0; k < next.size(); ++k)
+      moved = moved || std::fabs(next[k] - cuts[a][k]) > 1e-3 * side / grid[a];
+    cuts[a] = next;
+  }
+  if (!moved) return;
+  pending_cuts_ = std::move(cuts);
+  // Counted bodies are exact: take the new cuts at once. Time: only when the time the ranks
+  // lost waiting in the last interval exceeds what a rebuild costs; else at the next one.
+  force_rebuild_ = balance_.mode == BalanceMode::kBodies || most[0] - mean > most[1];
+}
+
+// Bodies whose centres left the subdomain go to their new owner (a partner); the old
+// shadows are dropped.
+void Simulation::migrate() {
   const auto &partners = domain_.partners();
   const std::size_t np = partners.size();
-  particles_.resize(owned_);  // drop the old shadows
-
+  particles_.resize(owned_);
   std::vector<std::vector<char>> out(np);
-  Particles staying;
   for (std::size_t i = 0; i < owned_; ++i) {
     const int to = domain_.owner_of(particles_.position(i));
     if (to == comm_.rank()) continue;
@@ -407,9 +498,16 @@ void Simulation::redistribute() {
   for (const auto &buf : arrived)
     for (std::size_t off = 0; off < buf.size();) unpack_body(buf, off, particles_);
   owned_ = particles_.size();
+}
 
+// Migration of bodies that left the subdomain, then fresh shadow copies for every partner
+// within the halo, each carrying the list of ranks that hold it.
+void Simulation::redistribute() {
+  migrate();
+  const auto &partners = domain_.partners();
+  const std::size_t np = partners.size();
+  std::vector<std::vector<char>> out(np);
   holding_.clear();
-  for (auto &b : out) b.clear();
   for (std::size_t i = 0; i < owned_; ++i) {
     Holding h{comm_.rank(), {}};
     for (int r : partners)

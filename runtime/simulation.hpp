@@ -24,6 +24,7 @@
 #include "kernels/order_tensor.hpp"
 #include "kernels/particles.hpp"
 #include "perf/region_timer.hpp"
+#include "runtime/balance.hpp"
 #include "runtime/comm.hpp"
 #include "runtime/domain.hpp"
 #include "runtime/scene.hpp"
@@ -37,6 +38,17 @@ class PhysicsError : public std::runtime_error {
 
 struct ParallelOptions {
   std::array<int, 3> grid{0, 0, 0};  // ranks per axis; zeros: MPI_Dims_create decides
+  BalanceOptions balance;            // moving the cuts (runtime/balance.hpp)
+};
+
+// What the load balancer did (runtime/balance.hpp); the same on every rank.
+struct BalanceRecord {
+  long long checks = 0;           // load comparisons between ranks
+  long long shifts = 0;           // new cuts taken into use
+  long long forced_rebuilds = 0;  // rebuilds done for new cuts (the others came at a rebuild)
+  double first_imbalance = 0.0;   // busiest rank's load / mean - 1, at the first check
+  double last_imbalance = 0.0;    // and at the last
+  double max_imbalance = 0.0;
 };
 
 // Running totals since the last call to Simulation::take_interval(), for this rank's
@@ -107,6 +119,8 @@ class Simulation {
   long long detections_watched() const { return detections_watched_; }
   Communicator &comm() { return comm_; }
   const Domain &domain() const { return domain_; }
+  const BalanceOptions &balance_options() const { return balance_; }
+  const BalanceRecord &balance_record() const { return balanced_; }
 
   // This rank's totals since the previous call; resets them.
   IntervalTotals take_interval();
@@ -171,10 +185,14 @@ class Simulation {
   void rebuild();
   DetectionStats detect();
   bool touches_boundary() const;
+  void migrate();
   void redistribute();
   std::vector<char> complete_clusters(const ContactClusters &clusters);
   void share_results(const ContactClusters &clusters, const std::vector<char> &resolved);
   void apply_thermostat();
+  // Collective, every balance_.interval steps: compares the ranks' loads and, past the
+  // threshold, sets new cuts for the next rebuild (forcing one when that pays).
+  void check_balance();
   void index_bodies();
   void report_problems(const std::vector<double> &flags);
   // Sums the counters and takes the maxima of `t` over ranks (steps and exact sums untouched).
@@ -207,6 +225,11 @@ class Simulation {
   long long pending_step_ = 0;
   bool stop_requested_ = false;
   bool stop_agreed_ = false;
+  BalanceOptions balance_;
+  BalanceRecord balanced_;
+  double busy_mark_ = 0.0;  // compute seconds at the last balance check
+  Cuts pending_cuts_;       // new cuts for the next rebuild (empty: none)
+  bool force_rebuild_ = false;
 };
 
 }  // namespace hardrod
