@@ -24,34 +24,84 @@ int cell_coordinate(double c, double side, int cells) {
   return std::clamp(k, 0, cells - 1);  // c == side after rounding, or tiny negatives
 }
 
+// The shortest periodic run of cells holding every occupied one: it starts after the
+// longest run of empty cells (the first of equals). All occupied, or none: the whole axis.
+void occupied_window(const std::vector<char> &occupied, int &origin, int &extent) {
+  const int n = static_cast<int>(occupied.size());
+  int longest = 0, after = 0, run = 0;
+  for (int k = 0; k < 2 * n; ++k) {  // twice round, so a gap across the wrap is whole
+    if (!occupied[static_cast<std::size_t>(k % n)]) {
+      run = std::min(run + 1, n);
+    } else {
+      if (run > longest) longest = run, after = k % n;
+      run = 0;
+    }
+  }
+  if (longest == 0 || run == n) {  // no gap, or no body
+    origin = 0;
+    extent = n;
+  } else {
+    origin = after;
+    extent = n - longest;
+  }
+}
+
+// Cells per axis for k cells per reach.
+std::array<int, 3> grid_for(const std::array<double, 3> &side, double reach, int k) {
+  std::array<int, 3> n{};
+  for (int a = 0; a < 3; ++a)
+    n[a] = std::max(1, static_cast<int>(std::floor(side[a] / (reach / k))));
+  return n;
+}
+
+// Per axis, each body's cell coordinate in grid n, and which cells hold a body.
+void coordinates(const Particles &p, std::size_t count, const std::array<double, 3> &side,
+                 const std::array<int, 3> &n, std::array<std::vector<int>, 3> &at,
+                 std::array<std::vector<char>, 3> &occupied) {
+  const double *x[3] = {p.x.data(), p.y.data(), p.z.data()};
+  for (int a = 0; a < 3; ++a) {
+    at[a].resize(count);
+    occupied[a].assign(static_cast<std::size_t>(n[a]), 0);
+    for (std::size_t i = 0; i < count; ++i) {
+      const int c = cell_coordinate(x[a][i], side[a], n[a]);
+      at[a][i] = c;
+      occupied[a][static_cast<std::size_t>(c)] = 1;
+    }
+  }
+}
+
 }  // namespace
 
 void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
-                     double reach, bool by_occupancy) {
+                     double reach, bool fit) {
   const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
   int k = 2;  // cells per reach
   for (int a = 0; a < 3; ++a)
     if (std::floor(side[a] / (reach / 2)) < 5) k = 1;
-  if (k == 2 && by_occupancy && count > 0) {
-    // Bodies per occupied cell of one cell per reach (occupied: a rank holds only its
-    // subdomain and halo of the box).
-    std::array<int, 3> n{};
-    for (int a = 0; a < 3; ++a) n[a] = std::max(1, static_cast<int>(std::floor(side[a] / reach)));
-    std::vector<char> seen(static_cast<std::size_t>(n[0]) * n[1] * n[2], 0);
-    std::size_t occupied = 0;
+  std::array<std::vector<int>, 3> at;  // each body's cell coordinates
+  std::array<std::vector<char>, 3> occupied;
+  if (k == 2 && fit && count > 0) {
+    // Bodies per occupied cell of one cell per reach, counted over the window of one per
+    // reach (the cells themselves, not the box, so this stays local to a rank too).
+    const auto n = grid_for(side, reach, 1);
+    coordinates(p, count, side, n, at, occupied);
+    std::array<int, 3> origin{}, extent{};
+    for (int a = 0; a < 3; ++a) occupied_window(occupied[a], origin[a], extent[a]);
+    std::vector<char> seen(static_cast<std::size_t>(extent[0]) * extent[1] * extent[2], 0);
+    std::size_t filled = 0;
     for (std::size_t i = 0; i < count; ++i) {
-      const std::size_t c =
-          (static_cast<std::size_t>(cell_coordinate(p.z[i], side[2], n[2])) * n[1] +
-           cell_coordinate(p.y[i], side[1], n[1])) *
-              n[0] +
-          cell_coordinate(p.x[i], side[0], n[0]);
-      occupied += !seen[c];
+      std::size_t c = 0;
+      for (int a = 2; a >= 0; --a) {
+        int w = at[a][i] - origin[a];
+        if (w < 0) w += n[a];
+        c = c * static_cast<std::size_t>(extent[a]) + static_cast<std::size_t>(w);
+      }
+      filled += !seen[c];
       seen[c] = 1;
     }
-    if (count < 16 * occupied) k = 1;
+    if (count < 16 * filled) k = 1;
   }
-  for (int a = 0; a < 3; ++a)
-    list.cells[a] = std::max(1, static_cast<int>(std::floor(side[a] / (reach / k))));
+  list.cells = grid_for(side, reach, k);
 
   list.full_stencil = true;
   for (int a = 0; a < 3; ++a) list.full_stencil &= list.cells[a] >= 2 * k + 1;
@@ -60,13 +110,24 @@ void build_cell_list(CellList &list, const Particles &p, std::size_t count, cons
     for (int oy : axis_offsets(list.cells[1], k))
       for (int ox : axis_offsets(list.cells[0], k)) list.stencil.push_back({ox, oy, oz});
 
+  coordinates(p, count, side, list.cells, at, occupied);
+  if (fit && count > 0) {
+    for (int a = 0; a < 3; ++a) occupied_window(occupied[a], list.origin[a], list.extent[a]);
+  } else {
+    list.origin = {0, 0, 0};
+    list.extent = list.cells;
+  }
+
   const int ncells = list.cell_count();
   std::vector<std::uint32_t> cell_of(count);
   list.cell_start.assign(static_cast<std::size_t>(ncells) + 1, 0);
   for (std::size_t i = 0; i < count; ++i) {
-    const int c = list.cell_index(cell_coordinate(p.x[i], side[0], list.cells[0]),
-                                  cell_coordinate(p.y[i], side[1], list.cells[1]),
-                                  cell_coordinate(p.z[i], side[2], list.cells[2]));
+    int w[3];
+    for (int a = 0; a < 3; ++a) {
+      w[a] = at[a][i] - list.origin[a];
+      if (w[a] < 0) w[a] += list.cells[a];
+    }
+    const int c = list.cell_index(w[0], w[1], w[2]);
     cell_of[i] = static_cast<std::uint32_t>(c);
     ++list.cell_start[static_cast<std::size_t>(c) + 1];
   }

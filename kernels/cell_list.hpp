@@ -2,11 +2,17 @@
 // Cells are at least `reach / reach_cells` wide, and the stencil spans reach_cells cells
 // each way, so every pair closer than `reach` lies within the stencil. Two cells per reach
 // (when every axis has room for five) cut the candidates about 1.7-fold against one, but
-// visit 125 cells per cell instead of 27: with `by_occupancy`, two only where the occupied
-// cells of one-per-reach hold 16 bodies or more on average (the nematic's ~25; a dense
-// hard-sphere fluid's ~2 and a gas's ~0.2 take one).
-// Axes with too few cells get a reduced stencil so no cell is visited twice through the
-// periodic wrap. Output: bodies sorted by cell (counting sort). Serial: runs on rebuilds.
+// visit 125 cells per cell instead of 27.
+// With `fit` (the neighbour list):
+//   - two cells per reach only where the occupied cells of one per reach hold 16 bodies or
+//     more on average (the nematic's ~25; a dense hard-sphere fluid's ~2 and a gas's ~0.2
+//     take one);
+//   - the cells are stored only over a window: per axis the shortest periodic run of
+//     cells that holds every body. A rank holds its subdomain and halo, not the box, so its
+//     memory and its passes over cells follow its own bodies, not the whole system's.
+// Cells outside the window are empty; `neighbour` says so with -1. Axes with too few cells
+// get a reduced stencil so no cell is visited twice through the periodic wrap. Output:
+// bodies sorted by cell (counting sort). Serial: runs on rebuilds.
 #pragma once
 
 #include <array>
@@ -19,7 +25,9 @@
 namespace hardrod {
 
 struct CellList {
-  std::array<int, 3> cells{1, 1, 1};  // cells per axis
+  std::array<int, 3> cells{1, 1, 1};   // cells per axis over the whole box
+  std::array<int, 3> origin{0, 0, 0};  // the window's first cell per axis (box coordinates)
+  std::array<int, 3> extent{1, 1, 1};  // the window's cells per axis (all of them without fit)
   std::vector<std::uint32_t>
       cell_start;                    // bodies of cell c: order[cell_start[c] .. cell_start[c+1])
   std::vector<std::uint32_t> order;  // body indices sorted by cell
@@ -28,18 +36,31 @@ struct CellList {
   // twice the reach, so a pair within reach has one periodic image.
   bool full_stencil = false;
 
-  int cell_count() const { return cells[0] * cells[1] * cells[2]; }
-  int cell_index(int cx, int cy, int cz) const { return (cz * cells[1] + cy) * cells[0] + cx; }
-  // Cell of neighbour offset `o` from cell (cx, cy, cz), periodic.
-  // Stencil offsets stay within one box length (|o| < cells), so one add or subtract wraps.
+  // Cells of the window, indexed by window coordinates (0 .. extent - 1 per axis).
+  int cell_count() const { return extent[0] * extent[1] * extent[2]; }
+  int cell_index(int cx, int cy, int cz) const { return (cz * extent[1] + cy) * extent[0] + cx; }
+  // Box coordinate along axis a of window coordinate c.
+  int box_coordinate(int a, int c) const {
+    const int g = origin[a] + c;
+    return g >= cells[a] ? g - cells[a] : g;
+  }
+  // Window cell of neighbour offset `o` from window cell (cx, cy, cz), periodic; -1 when it
+  // lies outside the window (no bodies there). Stencil offsets stay within one box length
+  // (|o| < cells), so one add or subtract wraps.
   int neighbour(int cx, int cy, int cz, const std::array<int, 3> &o) const {
-    const auto wrap = [](int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); };
-    return cell_index(wrap(cx + o[0], cells[0]), wrap(cy + o[1], cells[1]),
-                      wrap(cz + o[2], cells[2]));
+    const int c[3] = {cx, cy, cz};
+    int w[3];
+    for (int a = 0; a < 3; ++a) {
+      int k = c[a] + o[a];  // relative to the origin, periodic in the box
+      k = k < 0 ? k + cells[a] : (k >= cells[a] ? k - cells[a] : k);
+      if (k >= extent[a]) return -1;
+      w[a] = k;
+    }
+    return cell_index(w[0], w[1], w[2]);
   }
 };
 
 void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
-                     double reach, bool by_occupancy = false);
+                     double reach, bool fit = false);
 
 }  // namespace hardrod

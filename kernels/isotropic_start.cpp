@@ -274,9 +274,9 @@ class Compressor {
     neighbour_start_.assign(p_.size() + 1, 0);
     neighbours_.clear();
     std::vector<int> around;
-    for (int cz = 0; cz < cells_.cells[2]; ++cz)
-      for (int cy = 0; cy < cells_.cells[1]; ++cy)
-        for (int cx = 0; cx < cells_.cells[0]; ++cx) {
+    for (int cz = 0; cz < cells_.extent[2]; ++cz)
+      for (int cy = 0; cy < cells_.extent[1]; ++cy)
+        for (int cx = 0; cx < cells_.extent[0]; ++cx) {
           around.clear();
           for (const auto &o : cells_.stencil) around.push_back(cells_.neighbour(cx, cy, cz, o));
           const int c = cells_.cell_index(cx, cy, cz);
@@ -406,9 +406,9 @@ PairCheck check_pairs(const Particles &p, const Shape &shape, const Box &box) {
   CellList cells;
   build_cell_list(cells, p, p.size(), box, reach);
   std::vector<std::array<int, 3>> cell_of(p.size());
-  for (int cz = 0; cz < cells.cells[2]; ++cz)
-    for (int cy = 0; cy < cells.cells[1]; ++cy)
-      for (int cx = 0; cx < cells.cells[0]; ++cx) {
+  for (int cz = 0; cz < cells.extent[2]; ++cz)
+    for (int cy = 0; cy < cells.extent[1]; ++cy)
+      for (int cx = 0; cx < cells.extent[0]; ++cx) {
         const int c = cells.cell_index(cx, cy, cz);
         for (std::uint32_t k = cells.cell_start[c]; k < cells.cell_start[c + 1]; ++k)
           cell_of[cells.order[k]] = {cx, cy, cz};

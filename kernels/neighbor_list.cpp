@@ -126,24 +126,27 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
     for (int c = 0; c < cl.cell_count(); ++c) {
       // An empty cell has no pairs to start (in a gas, or the box beyond a rank's halo).
       if (cl.cell_start[c + 1] == cl.cell_start[c]) continue;
-      const int cx = c % cl.cells[0];
-      const int cy = (c / cl.cells[0]) % cl.cells[1];
-      const int cz = c / (cl.cells[0] * cl.cells[1]);
+      const int cx = c % cl.extent[0];  // window coordinates
+      const int cy = (c / cl.extent[0]) % cl.extent[1];
+      const int cz = c / (cl.extent[0] * cl.extent[1]);
+      const int bx = cl.box_coordinate(0, cx), by = cl.box_coordinate(1, cy),
+                bz = cl.box_coordinate(2, cz);
       // The cells gathered (own first) and the shifts of their folded centres.
       cells_here.clear();
       cells_here.push_back({c, 0.0, 0.0, 0.0});
       for (const auto &o : cl.stencil) {
         // The stencil reaches distinct cells, so visiting only cells nc >= c (and, in c
-        // itself, only later bodies) takes each unordered pair exactly once.
+        // itself, only later bodies) takes each unordered pair exactly once. Outside the
+        // window (-1) there are no bodies.
         const int nc = cl.neighbour(cx, cy, cz, o);
         if (nc <= c) continue;
         // The shift that brings the neighbour cell's folded centres next to this cell.
         const auto shift = [](int at, int n, double length) {
           return at < 0 ? -length : (at >= n ? length : 0.0);
         };
-        cells_here.push_back({nc, shift(cx + o[0], cl.cells[0], side[0]),
-                              shift(cy + o[1], cl.cells[1], side[1]),
-                              shift(cz + o[2], cl.cells[2], side[2])});
+        cells_here.push_back({nc, shift(bx + o[0], cl.cells[0], side[0]),
+                              shift(by + o[1], cl.cells[1], side[1]),
+                              shift(bz + o[2], cl.cells[2], side[2])});
       }
       std::size_t total = 0;
       for (const Gathered &g : cells_here)

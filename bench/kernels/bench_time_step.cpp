@@ -221,6 +221,43 @@ BENCHMARK(BM_NeighborBuild)
     ->UseRealTime()
     ->Unit(benchmark::kMicrosecond);
 
+// The broad phase of one rank's bodies in a large system: the relaxed 2304-rod nematic in
+// a corner of a box `scale` times wider along each axis (as a rank of a scale^3 grid holds
+// its own subdomain; its halo left out). Scales 4 and 10 give the same list (at 1 the
+// box's periodic images add pairs); the cost must not grow with the box. Per body.
+void BM_NeighborBuildInLargeBox(benchmark::State &state) {
+  const double scale = static_cast<double>(state.range(0));
+  omp_set_num_threads(1);
+  const Particles &relaxed = relaxed_bodies(1);
+  const Scene scene = nematic_scene(1, 1e-4);
+  Box box = scene.box;
+  Particles local = relaxed;
+  for (std::size_t i = 0; i < local.size(); ++i)  // folded into the corner cell of the grid
+    local.set_position(i, scene.box.wrap(local.position(i)));
+  box.length = scale * box.length;
+  NeighborList list;
+  list.skin = scene.skin;
+  for (auto _ : state) {
+    state.PauseTiming();
+    Particles p = local;
+    state.ResumeTiming();
+    build_neighbor_list(list, p, p.size(), box, scene.shape);
+    benchmark::DoNotOptimize(list.pairs.data());
+  }
+  state.counters["ns_per_body"] = benchmark::Counter(
+      static_cast<double>(local.size()) * 1e-9 * static_cast<double>(state.iterations()),
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["pairs_per_rod"] = static_cast<double>(list.pair_count()) / local.size();
+  state.counters["cells_stored"] = static_cast<double>(list.cells.cell_count());
+}
+BENCHMARK(BM_NeighborBuildInLargeBox)
+    ->ArgName("scale")
+    ->Arg(1)
+    ->Arg(4)
+    ->Arg(10)
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
+
 // The broad phase of hard spheres on their lattice (20^3 = 8000): a dense fluid's density
 // (packing fraction 0.45) and a dilute gas's (0.05), where most cells are empty. Per body.
 void BM_NeighborBuildSpheres(benchmark::State &state) {

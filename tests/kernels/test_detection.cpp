@@ -199,6 +199,53 @@ TEST(Detection, WatchesCoverEveryPair) { check_watches(1.0, 100, 1, 3000); }
 // of bodies in each other's blocks (atomic minimum). Dropping that lowering fails here.
 TEST(Detection, WatchesCoverEveryPairOnTwoThreads) { check_watches(4.0, 6400, 2, 400); }
 
+// A rank holds a slab of the box, here one across the periodic boundary in x and a gap
+// in y: the cell list keeps only the window of cells that holds bodies (not the box), and
+// the list is still every pair within the reach, for rods and for spheres (one cell per
+// reach at their occupancy).
+TEST(Detection, ListOfASlabAcrossThePeriodicBoundary) {
+  for (double length : {5.0, 0.0}) {
+    Shape shape;
+    shape.length = length;
+    Box box;
+    box.length = {80.0, 40.0, 24.0};
+    const Particles gas = random_gas(12000, box, 11, length > 0);
+    Particles p;
+    for (std::size_t i = 0; i < gas.size(); ++i) {
+      const Vec3 r = box.wrap(gas.position(i));
+      if (!(r.x > 66.0 || r.x < 9.0) || (r.y > 14.0 && r.y < 27.0)) continue;
+      const std::size_t k = p.size();
+      p.resize(k + 1);
+      p.id[k] = gas.id[i];
+      p.set_position(k, gas.position(i));
+      p.set_axis(k, gas.axis(i));
+    }
+    NeighborList list;
+    list.skin = 0.3;
+    build_neighbor_list(list, p, p.size(), box, shape);
+    const CellList &cl = list.cells;
+    EXPECT_LT(cl.extent[0], cl.cells[0]);
+    EXPECT_LT(cl.extent[1], cl.cells[1]);
+    EXPECT_EQ(cl.extent[2], cl.cells[2]);
+    EXPECT_GT(cl.origin[0], cl.cells[0] / 2);  // the window starts right of the gap in x
+    PairSet listed, expected;
+    for (const ListedPair &pair : list.pairs)
+      listed.insert({std::min(p.id[pair.first], p.id[pair.second]),
+                     std::max(p.id[pair.first], p.id[pair.second])});
+    const double h = shape.half_length();
+    for (std::size_t i = 0; i < p.size(); ++i)
+      for (std::size_t j = i + 1; j < p.size(); ++j) {
+        const Vec3 r = box.minimum_image(p.position(j) - p.position(i));
+        const auto sc = segment_closest(r, p.axis(i), h, p.axis(j), h);
+        if (std::sqrt(sc.dist2) < shape.diameter + list.skin)
+          expected.insert({std::min(p.id[i], p.id[j]), std::max(p.id[i], p.id[j])});
+      }
+    EXPECT_GT(expected.size(), 100u);
+    EXPECT_EQ(listed, expected) << "length " << length;
+    EXPECT_EQ(list.pairs.size(), listed.size()) << "a pair listed twice";
+  }
+}
+
 TEST(Detection, ContactGeometryIsCanonical) {
   Shape shape;
   Box box;
