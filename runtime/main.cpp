@@ -22,6 +22,28 @@
 #include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
 
+namespace {
+
+// A check for options that take a positive whole number, naming the option and the value.
+CLI::Validator positive(const std::string &option) {
+  return CLI::Validator(
+      [option](std::string &value) {
+        std::size_t used = 0;
+        long long n = 0;
+        try {
+          n = std::stoll(value, &used);
+        } catch (const std::exception &) {
+          used = 0;
+        }
+        if (used != value.size() || used == 0 || n < 1)
+          return option + " must be a positive whole number, got '" + value + "'";
+        return std::string();
+      },
+      "POSITIVE");
+}
+
+}  // namespace
+
 int main(int argc, char **argv) {
   CLI::App app{"hardrod: hard-spherocylinder liquid crystals by hard-contact rigid-body dynamics"};
   app.require_subcommand(1);
@@ -44,7 +66,7 @@ int main(int argc, char **argv) {
   // The options of a process that steps a simulation: the same for run and resume.
   const auto add_execution_options = [&](CLI::App *cmd) {
     cmd->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive("--threads"));
     cmd->add_flag("--quiet", quiet, "no progress output");
     cmd->add_flag("--no-bind", no_bind, "do not bind OpenMP threads to cores");
     cmd->add_flag("--verify", options.verify,
@@ -68,7 +90,7 @@ int main(int argc, char **argv) {
         });
     cmd->add_option("--balance-interval", options.parallel.balance.interval,
                     "steps between load comparisons (default 1000)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive("--balance-interval"));
   };
   add_execution_options(run);
 
@@ -109,7 +131,10 @@ int main(int argc, char **argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError &e) {
-    return app.exit(e);
+    // --help and --version exit 0; every bad command line exits 1, as README.md says
+    // (CLI11's own codes, 105 for a failed check and so on, are not part of the interface).
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 1;
   }
 
   if (app.got_subcommand("info")) {

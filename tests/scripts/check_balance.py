@@ -9,7 +9,7 @@ about a third and one none. Then:
     its owner after every step (--verify), and end in the 1 x 1 state bit for bit;
   - `--balance time` (whatever the machine's timing does) and `--balance off` must end in
     the same state;
-  - a bad `--balance` value is refused, naming it.
+  - a bad `--balance` or `--balance-interval` value is refused with exit status 1, naming it.
 """
 import json
 import os
@@ -91,13 +91,16 @@ def main():
             if mode == "off" and (b["shifts"] != 0 or b["checks"] != 0):
                 failures.append("--balance off: the cuts moved")
 
-        bad = subprocess.run([hardrod, "run", str(scene), "--balance", "fast", "--out",
-                              str(tmp / "bad")], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                             text=True)
-        if bad.returncode == 0 or "--balance" not in bad.stdout or "fast" not in bad.stdout:
-            failures.append(f"--balance fast: not refused by name: {bad.stdout.strip()}")
-        if (tmp / "bad").exists():
-            failures.append("--balance fast: wrote output")
+        for flag, value in (("--balance", "fast"), ("--balance-interval", "0"),
+                            ("--balance-interval", "ten")):
+            bad = subprocess.run([hardrod, "run", str(scene), flag, value, "--out", str(tmp / "bad")],
+                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            # Exit status 1 (bad command line, README.md), the message naming flag and value.
+            if bad.returncode != 1 or flag not in bad.stdout or f"'{value}'" not in bad.stdout:
+                failures.append(f"{flag} {value}: not refused by name with exit status 1 "
+                                f"({bad.returncode}): {bad.stdout.strip()}")
+            if (tmp / "bad").exists():
+                failures.append(f"{flag} {value}: wrote output")
         for f in failures:
             print("FAILED:", f)
         if failures:
