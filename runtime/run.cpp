@@ -603,6 +603,8 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
         {"first_imbalance", sim.balance_record().first_imbalance},
         {"last_imbalance", sim.balance_record().last_imbalance},
         {"max_imbalance", sim.balance_record().max_imbalance},
+        {"largest_shift", sim.balance_record().largest_shift},
+        {"partner_reach", sim.domain().partner_reach()},
         {"cuts", sim.domain().cuts()}}},
       {"threads", omp_get_max_threads()},
       {"topology", topology.description},

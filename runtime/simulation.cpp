@@ -126,6 +126,25 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
   const double shadow_reach = shape.half_length() + shape.diameter + scene_.skin;
   const double partner_reach = 2.0 * (shadow_reach + shape.half_length());
   domain_ = Domain(scene_.box, grid, comm_.rank(), shadow_reach, partner_reach);
+  if (balance_.mode != BalanceMode::kOff && comm_.size() > 1) {
+    // Every rank holds all bodies here: start from cuts that share them out evenly along
+    // each axis (a few passes of the balancer on the slabs' counts; the same on every rank).
+    Cuts cuts = domain_.cuts();
+    const double *at[3] = {all.x.data(), all.y.data(), all.z.data()};
+    const double sides[3] = {scene_.box.length.x, scene_.box.length.y, scene_.box.length.z};
+    for (int pass = 0; pass < 4; ++pass)
+      for (int a = 0; a < 3; ++a) {
+        if (grid[a] < 2) continue;
+        std::vector<double> counts(static_cast<std::size_t>(grid[a]), 0.0);
+        for (std::size_t i = 0; i < all.size(); ++i) {
+          const double x = Box::wrap(at[a][i], sides[a]);
+          const auto above = std::upper_bound(cuts[a].begin() + 1, cuts[a].end() - 1, x);
+          counts[static_cast<std::size_t>(above - cuts[a].begin()) - 1] += 1.0;
+        }
+        cuts[a] = balanced_cuts(cuts[a], counts, 0.5 * sides[a] / grid[a], sides[a]);
+      }
+    domain_ = Domain(scene_.box, grid, comm_.rank(), shadow_reach, partner_reach, cuts);
+  }
 
   // Every rank makes the same full state and keeps the bodies whose centres it owns.
   Particles mine;
@@ -344,6 +363,7 @@ void Simulation::rebuild() {
     for (int a = 0; a < 3; ++a)
       for (std::size_t k = 0; k < to[a].size(); ++k)
         most = std::max(most, std::fabs(to[a][k] - from[a][k]));
+    balanced_.largest_shift = std::max(balanced_.largest_shift, most);
     const int stages =
         std::max(1, static_cast<int>(std::ceil(most / (0.5 * domain_.partner_reach()))));
     for (int s = 1; s <= stages; ++s) {

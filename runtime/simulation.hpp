@@ -49,6 +49,8 @@ struct BalanceRecord {
   double first_imbalance = 0.0;   // busiest rank's load / mean - 1, at the first check
   double last_imbalance = 0.0;    // and at the last
   double max_imbalance = 0.0;
+  double largest_shift = 0.0;  // of one cut at one rebuild (D); moved in stages past half
+                               // the partner reach
 };
 
 // Running totals since the last call to Simulation::take_interval(), for this rank's

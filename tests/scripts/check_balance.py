@@ -2,13 +2,16 @@
 """Load balancing through the binary: moving cuts never change the trajectory.
 
 A hard-sphere gas starts squeezed into the lower half of the box along x (an H5MD start
-file written with h5py), so on three ranks cut along x one rank holds most bodies, one
-about a third and one none. Then:
-  - `--balance bodies` (deterministic) must move the cuts (forced rebuilds), bring the
-    busiest rank's load near the mean, keep every id owned once and every shadow equal to
-    its owner after every step (--verify), and end in the 1 x 1 state bit for bit;
+file written with h5py), so on three ranks cut evenly along x one rank would hold most
+bodies, one about a third and one none. Then:
+  - `--balance bodies` (deterministic) must start from cuts that share the bodies out
+    (imbalance at the first check far below the even grid's), keep moving them as the gas
+    spreads (forced rebuilds), keep every id owned once and every shadow equal to its owner
+    after every step (--verify), and end in the 1 x 1 state bit for bit;
+  - the same in a hot gas on four ranks checked every 200 steps, where one rebuild moves a
+    cut further than the partner reach, so the bodies migrate in stages;
   - `--balance time` (whatever the machine's timing does) and `--balance off` must end in
-    the same state;
+    the same state as 1 x 1;
   - a bad `--balance` or `--balance-interval` value is refused with exit status 1, naming it.
 """
 import json
@@ -55,41 +58,59 @@ def main():
             frame[:, 0] = (frame[:, 0] % side) * 0.5
             pos[-1] = frame
         common = ["--set", "init.configuration=\"file\"", "--set", f"init.file=\"{start}\"",
-                  "--set", "init.temperature=100.0", "--set", "run.steps=1000",
-                  "--set", "run.sample_interval=250", "--balance-interval", "50"]
-        ref = run(hardrod, scene, tmp / "1x1", 1, common)
-        print(f"1 x 1: checksum {ref['state_checksum']}, collisions {ref['collisions']}")
-        if ref["collisions"] < 100:
-            raise SystemExit("FAILED: too few collisions for a meaningful comparison")
-
+                  "--set", "run.steps=1000", "--set", "run.sample_interval=250"]
+        mild = common + ["--set", "init.temperature=100.0", "--balance-interval", "50"]
+        hot = common + ["--set", "init.temperature=2500.0", "--balance-interval", "200"]
         failures = []
-        for mode, verify in (("bodies", True), ("time", False), ("off", False)):
-            s = run(hardrod, scene, tmp / f"3x1-{mode}", 3,
-                    common + ["--balance", mode] + (["--verify"] if verify else []))
+        refs = {}
+        for name, opts in (("mild", mild), ("hot", hot)):
+            refs[name] = run(hardrod, scene, tmp / f"1x1-{name}", 1, opts)
+            r = refs[name]
+            print(f"1 x 1 {name}: checksum {r['state_checksum']}, collisions {r['collisions']}")
+            if r["collisions"] < 100:
+                failures.append(f"{name}: too few collisions for a meaningful comparison")
+
+        # The hot gas on 4 ranks in a row (slabs 0 and 2 are not partners): a cut moves
+        # further than the partner reach in one rebuild, which then moves it in stages,
+        # migrating after each, checked by --verify.
+        cases = (("mild", "bodies", True, 3), ("hot", "bodies", True, 4),
+                 ("mild", "time", False, 3), ("mild", "off", False, 3))
+        for gas, mode, verify, ranks in cases:
+            opts = mild if gas == "mild" else hot + ["--grid", "4x1x1"]
+            s = run(hardrod, scene, tmp / f"{ranks}x1-{gas}-{mode}", ranks,
+                    opts + ["--balance", mode] + (["--verify"] if verify else []))
+            ref = refs[gas]
             b = s["balance"]
-            print(f"3 x 1, --balance {mode}: grid {s['grid']}, checksum {s['state_checksum']}, "
+            label = f"{gas} gas, --balance {mode}"
+            print(f"{ranks} x 1, {label}: grid {s['grid']}, checksum {s['state_checksum']}, "
                   f"collisions {s['collisions']}; {b['checks']} checks, {b['shifts']} shifts "
-                  f"({b['forced_rebuilds']} forced), imbalance {b['first_imbalance']:.3f} -> "
+                  f"({b['forced_rebuilds']} forced, largest {b['largest_shift']:.2f} D, partner "
+                  f"reach {b['partner_reach']:.2f} D), imbalance {b['first_imbalance']:.3f} -> "
                   f"{b['last_imbalance']:.3f}, cuts x {[round(c, 3) for c in b['cuts'][0]]}")
             for key in ("state_checksum", "collisions", "steps_done"):
                 if s[key] != ref[key]:
-                    failures.append(f"--balance {mode}: {key} = {s[key]}, 1 x 1 has {ref[key]}")
-            if s["grid"] != [3, 1, 1]:
-                failures.append(f"--balance {mode}: grid {s['grid']}, expected cuts along x")
+                    failures.append(f"{label}: {key} = {s[key]}, 1 x 1 has {ref[key]}")
+            if s["grid"] != [ranks, 1, 1]:
+                failures.append(f"{label}: grid {s['grid']}, expected cuts along x")
+            widths = [hi - lo for lo, hi in zip(b["cuts"][0], b["cuts"][0][1:])]
+            # The even grid starts with ~90 % (3 ranks) or ~100 % (4) imbalance here.
             if mode == "bodies":
-                if b["shifts"] < 2 or b["forced_rebuilds"] < 1:
-                    failures.append("--balance bodies: the cuts did not move")
-                if not b["first_imbalance"] > 0.8:
-                    failures.append(f"--balance bodies: the start is not unbalanced "
+                # The even grid starts with ~90 % imbalance here (one rank has most bodies).
+                if not b["first_imbalance"] < 0.3:
+                    failures.append(f"{label}: the start cuts did not share the bodies out "
                                     f"({b['first_imbalance']:.3f})")
+                if b["shifts"] < 1 or b["forced_rebuilds"] < 1:
+                    failures.append(f"{label}: the cuts did not move during the run")
                 if not b["last_imbalance"] < 0.25:
-                    failures.append(f"--balance bodies: still unbalanced at the end "
-                                    f"({b['last_imbalance']:.3f})")
-                widths = [hi - lo for lo, hi in zip(b["cuts"][0], b["cuts"][0][1:])]
-                if not widths[0] < widths[2]:
-                    failures.append(f"--balance bodies: the crowded slab did not shrink {widths}")
-            if mode == "off" and (b["shifts"] != 0 or b["checks"] != 0):
-                failures.append("--balance off: the cuts moved")
+                    failures.append(f"{label}: still unbalanced at the end ({b['last_imbalance']:.3f})")
+                if not widths[0] < widths[-1]:
+                    failures.append(f"{label}: the crowded slab is not the thinnest {widths}")
+                if gas == "hot" and not b["largest_shift"] > b["partner_reach"]:
+                    failures.append(f"{label}: no cut moved far enough to need stages "
+                                    f"({b['largest_shift']:.2f} D)")
+            if mode == "off" and (b["shifts"] != 0 or b["checks"] != 0 or len(set(
+                    round(w, 9) for w in widths)) != 1):
+                failures.append(f"{label}: the cuts moved {widths}")
 
         for flag, value in (("--balance", "fast"), ("--balance-interval", "0"),
                             ("--balance-interval", "ten")):
