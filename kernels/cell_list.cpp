@@ -62,12 +62,15 @@ void coordinates(const Particles &p, std::size_t count, const std::array<double,
   for (int a = 0; a < 3; ++a) {
     at[a].resize(count);
     occupied[a].assign(static_cast<std::size_t>(n[a]), 0);
-    for (std::size_t i = 0; i < count; ++i) {
-      const int c = cell_coordinate(x[a][i], side[a], n[a]);
-      at[a][i] = c;
-      occupied[a][static_cast<std::size_t>(c)] = 1;
-    }
   }
+  // The coordinates (a division and a rounding each) on the team, above a few thousand
+  // bodies; which cells hold a body after, in one thread.
+  const long m = static_cast<long>(count);
+#pragma omp parallel for schedule(static) if (m > 4096)
+  for (long i = 0; i < m; ++i)
+    for (int a = 0; a < 3; ++a) at[a][i] = cell_coordinate(x[a][i], side[a], n[a]);
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t i = 0; i < count; ++i) occupied[a][static_cast<std::size_t>(at[a][i])] = 1;
 }
 
 }  // namespace

@@ -63,17 +63,19 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   const double prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
   build_cell_list(list.cells, p, count, box, centre_reach, true);
   // Bodies sorted by cell (owned ones first): neighbours in space are neighbours in memory
-  // for every later pass. Ids travel with the bodies. The cell list is then rebuilt on the
-  // new order; with one rank a cell's bodies are one contiguous index range.
+  // for every later pass. Ids travel with the bodies. The cell list then names the bodies
+  // by their new indices (the cells and their counts are those of the same positions; within
+  // a cell the owned bodies still come first, each group in rising order, as binning the new
+  // order gives); with one rank a cell's bodies are one contiguous index range.
   {
-    std::vector<std::uint32_t> perm;
+    std::vector<std::uint32_t> perm, where(count);
     perm.reserve(count);
     for (std::uint32_t b : list.cells.order)
-      if (b < owned) perm.push_back(b);
+      if (b < owned) where[b] = static_cast<std::uint32_t>(perm.size()), perm.push_back(b);
     for (std::uint32_t b : list.cells.order)
-      if (b >= owned) perm.push_back(b);
+      if (b >= owned) where[b] = static_cast<std::uint32_t>(perm.size()), perm.push_back(b);
     p.permute(perm);
-    build_cell_list(list.cells, p, count, box, centre_reach, true);
+    for (std::uint32_t &b : list.cells.order) b = where[b];
   }
   const CellList &cl = list.cells;
   const std::uint32_t *member = cl.order.data();

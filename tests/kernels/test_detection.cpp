@@ -9,6 +9,7 @@
 #include <set>
 #include <utility>
 
+#include "kernels/cell_list.hpp"
 #include "kernels/contact_detection.hpp"
 #include "kernels/integrator.hpp"
 #include "kernels/neighbor_list.hpp"
@@ -228,6 +229,14 @@ TEST(Detection, ListOfASlabAcrossThePeriodicBoundary) {
     EXPECT_LT(cl.extent[1], cl.cells[1]);
     EXPECT_EQ(cl.extent[2], cl.cells[2]);
     EXPECT_GT(cl.origin[0], cl.cells[0] / 2);  // the window starts right of the gap in x
+    // The cell list renamed after the bodies were sorted is the one binning them again gives.
+    CellList again;
+    build_cell_list(again, p, p.size(), box, shape.length + shape.diameter + list.skin, true);
+    EXPECT_EQ(cl.cells, again.cells);
+    EXPECT_EQ(cl.origin, again.origin);
+    EXPECT_EQ(cl.extent, again.extent);
+    EXPECT_EQ(cl.cell_start, again.cell_start);
+    EXPECT_EQ(cl.order, again.order);
     PairSet listed, expected;
     for (const ListedPair &pair : list.pairs)
       listed.insert({std::min(p.id[pair.first], p.id[pair.second]),
