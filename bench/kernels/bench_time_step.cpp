@@ -194,26 +194,33 @@ BENCHMARK(BM_RefreshMotion)
     ->UseRealTime()
     ->Unit(benchmark::kMicrosecond);
 
-// The broad phase alone: cell list, body sort and pair list of the relaxed bodies (a copy
-// per call, so every call sorts the same input). Per body, as the list is built per body.
-void BM_NeighborBuild(benchmark::State &state) {
-  const int halvings = static_cast<int>(state.range(0));
-  omp_set_num_threads(static_cast<int>(state.range(1)));
-  const Particles &relaxed = relaxed_bodies(halvings);
-  const Scene scene = nematic_scene(halvings, 1e-4);
+// Times whole list builds of `bodies` (a copy per call, so every call sorts the same input);
+// counters per body, as the list is built per body. Returns the last list.
+NeighborList time_list_builds(benchmark::State &state, const Particles &bodies, const Box &box,
+                              const Shape &shape, double skin) {
+  const char *pairs_per = shape.is_sphere() ? "pairs_per_body" : "pairs_per_rod";
   NeighborList list;
-  list.skin = scene.skin;
+  list.skin = skin;
   for (auto _ : state) {
     state.PauseTiming();
-    Particles p = relaxed;
+    Particles p = bodies;
     state.ResumeTiming();
-    build_neighbor_list(list, p, p.size(), scene.box, scene.shape);
+    build_neighbor_list(list, p, p.size(), box, shape);
     benchmark::DoNotOptimize(list.pairs.data());
   }
   state.counters["ns_per_body"] = benchmark::Counter(
-      static_cast<double>(relaxed.size()) * 1e-9 * static_cast<double>(state.iterations()),
+      static_cast<double>(bodies.size()) * 1e-9 * static_cast<double>(state.iterations()),
       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.counters["pairs_per_rod"] = static_cast<double>(list.pair_count()) / relaxed.size();
+  state.counters[pairs_per] = static_cast<double>(list.pair_count()) / bodies.size();
+  return list;
+}
+
+// The broad phase alone: cell list, body sort and pair list of the relaxed bodies.
+void BM_NeighborBuild(benchmark::State &state) {
+  const int halvings = static_cast<int>(state.range(0));
+  omp_set_num_threads(static_cast<int>(state.range(1)));
+  const Scene scene = nematic_scene(halvings, 1e-4);
+  time_list_builds(state, relaxed_bodies(halvings), scene.box, scene.shape, scene.skin);
 }
 BENCHMARK(BM_NeighborBuild)
     ->ArgNames({"halvings", "threads"})
@@ -228,26 +235,13 @@ BENCHMARK(BM_NeighborBuild)
 void BM_NeighborBuildInLargeBox(benchmark::State &state) {
   const double scale = static_cast<double>(state.range(0));
   omp_set_num_threads(1);
-  const Particles &relaxed = relaxed_bodies(1);
   const Scene scene = nematic_scene(1, 1e-4);
-  Box box = scene.box;
-  Particles local = relaxed;
+  Particles local = relaxed_bodies(1);
   for (std::size_t i = 0; i < local.size(); ++i)  // folded into the corner cell of the grid
     local.set_position(i, scene.box.wrap(local.position(i)));
+  Box box = scene.box;
   box.length = scale * box.length;
-  NeighborList list;
-  list.skin = scene.skin;
-  for (auto _ : state) {
-    state.PauseTiming();
-    Particles p = local;
-    state.ResumeTiming();
-    build_neighbor_list(list, p, p.size(), box, scene.shape);
-    benchmark::DoNotOptimize(list.pairs.data());
-  }
-  state.counters["ns_per_body"] = benchmark::Counter(
-      static_cast<double>(local.size()) * 1e-9 * static_cast<double>(state.iterations()),
-      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.counters["pairs_per_rod"] = static_cast<double>(list.pair_count()) / local.size();
+  const NeighborList list = time_list_builds(state, local, box, scene.shape, scene.skin);
   state.counters["cells_stored"] = static_cast<double>(list.cells.cell_count());
 }
 BENCHMARK(BM_NeighborBuildInLargeBox)
@@ -270,20 +264,7 @@ void BM_NeighborBuildSpheres(benchmark::State &state) {
   scene.n = 8000;
   const double side = std::cbrt(8000.0 * scene.shape.volume() / eta);
   scene.box.length = {side, side, side};
-  const Particles lattice = initial_bodies(scene);
-  NeighborList list;
-  list.skin = scene.skin;
-  for (auto _ : state) {
-    state.PauseTiming();
-    Particles p = lattice;
-    state.ResumeTiming();
-    build_neighbor_list(list, p, p.size(), scene.box, scene.shape);
-    benchmark::DoNotOptimize(list.pairs.data());
-  }
-  state.counters["ns_per_body"] =
-      benchmark::Counter(8000.0 * 1e-9 * static_cast<double>(state.iterations()),
-                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.counters["pairs_per_body"] = static_cast<double>(list.pair_count()) / 8000.0;
+  time_list_builds(state, initial_bodies(scene), scene.box, scene.shape, scene.skin);
 }
 BENCHMARK(BM_NeighborBuildSpheres)
     ->ArgNames({"dilute", "threads"})
