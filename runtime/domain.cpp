@@ -38,6 +38,11 @@ Cuts Domain::uniform_cuts(const Box &box, std::array<int, 3> grid) {
   return cuts;
 }
 
+int Domain::slab(const std::vector<double> &cuts, double x) {
+  const auto above = std::upper_bound(cuts.begin() + 1, cuts.end() - 1, x);
+  return static_cast<int>(above - cuts.begin()) - 1;
+}
+
 Domain::Domain(const Box &box, std::array<int, 3> grid, int rank, double shadow_reach,
                double partner_reach, Cuts cuts)
     : box_(box),
@@ -92,10 +97,7 @@ int Domain::owner_of(const Vec3 &p) const {
   const double x[3] = {folded.x, folded.y, folded.z};
   int c[3];
   for (int a = 0; a < 3; ++a) {
-    // Same rule as lower()/upper(): slab k covers [cuts[k], cuts[k + 1]).
-    const auto &cut = cuts_[a];
-    const auto above = std::upper_bound(cut.begin() + 1, cut.end() - 1, x[a]);
-    c[a] = static_cast<int>(above - cut.begin()) - 1;
+    c[a] = slab(cuts_[a], x[a]);  // the rule of lower()/upper()
   }
   return (c[2] * grid_[1] + c[1]) * grid_[0] + c[0];
 }

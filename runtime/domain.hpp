@@ -27,6 +27,9 @@ class Domain {
   Domain(const Box &box, std::array<int, 3> grid, int rank, double shadow_reach,
          double partner_reach, Cuts cuts = {});
   static Cuts uniform_cuts(const Box &box, std::array<int, 3> grid);
+  // The slab of one axis's cuts that holds the folded coordinate x: k with
+  // cuts[k] <= x < cuts[k + 1] (the first and last slabs also take what rounds past the ends).
+  static int slab(const std::vector<double> &cuts, double x);
 
   int rank() const { return rank_; }
   int ranks() const { return grid_[0] * grid_[1] * grid_[2]; }
@@ -39,6 +42,8 @@ class Domain {
 
   // Rank whose subdomain contains the (folded) centre p.
   int owner_of(const Vec3 &p) const;
+  // Grid coordinates of rank r (rank = (cz * dy + cy) * dx + cx).
+  std::array<int, 3> coords(int r) const;
   // True when the segment centre +- h e comes closer than shadow_reach() to rank r's
   // subdomain (periodic). Uses the Euclidean norm of the per-axis gaps between the
   // segment's projection and the subdomain, a lower bound of the true distance, so the
@@ -49,8 +54,6 @@ class Domain {
   std::string describe() const;
 
  private:
-  std::array<int, 3> coords(int r) const;
-
   Box box_;
   std::array<int, 3> grid_{1, 1, 1};
   int rank_ = 0;

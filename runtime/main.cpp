@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -84,9 +85,12 @@ int main(int argc, char **argv) {
                     "move the subdomain cuts so the ranks carry equal loads: time (measured "
                     "compute time, default), bodies (advanced bodies, deterministic) or off")
         ->check([](const std::string &m) {
-          return m == "off" || m == "bodies" || m == "time"
-                     ? std::string()
-                     : "--balance must be off, bodies or time, got '" + m + "'";
+          try {
+            hardrod::parse_balance_mode(m);  // the one list of the modes' names
+            return std::string();
+          } catch (const std::invalid_argument &e) {
+            return std::string(e.what());
+          }
         });
     cmd->add_option("--balance-interval", options.parallel.balance.interval,
                     "steps between load comparisons (default 1000)")

@@ -136,11 +136,9 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
       for (int a = 0; a < 3; ++a) {
         if (grid[a] < 2) continue;
         std::vector<double> counts(static_cast<std::size_t>(grid[a]), 0.0);
-        for (std::size_t i = 0; i < all.size(); ++i) {
-          const double x = Box::wrap(at[a][i], sides[a]);
-          const auto above = std::upper_bound(cuts[a].begin() + 1, cuts[a].end() - 1, x);
-          counts[static_cast<std::size_t>(above - cuts[a].begin()) - 1] += 1.0;
-        }
+        for (std::size_t i = 0; i < all.size(); ++i)
+          counts[static_cast<std::size_t>(Domain::slab(cuts[a], Box::wrap(at[a][i], sides[a])))] +=
+              1.0;
         cuts[a] = balanced_cuts(cuts[a], counts, 0.5 * sides[a] / grid[a], sides[a]);
       }
     domain_ = Domain(scene_.box, grid, comm_.rank(), shadow_reach, partner_reach, cuts);
@@ -445,8 +443,7 @@ void Simulation::check_balance() {
   }
   // Loads per slab along each axis, and in all: exact sums, so every rank gets the same bits
   // and computes the same cuts.
-  const int r = comm_.rank();
-  const int c[3] = {r % grid[0], (r / grid[0]) % grid[1], r / (grid[0] * grid[1])};
+  const auto c = domain_.coords(comm_.rank());
   std::vector<ExactSum> sums(static_cast<std::size_t>(grid[0] + grid[1] + grid[2]) + 1);
   sums[static_cast<std::size_t>(c[0])].add(load);
   sums[static_cast<std::size_t>(grid[0] + c[1])].add(load);
