@@ -13,37 +13,35 @@ namespace hardrod {
 
 namespace {
 
-// Ring of each shadow in the pair graph (1: listed with an owned body, 2: with a ring-1
-// shadow, 3: further). Keeps the pairs with an owned or ring-1 body, and stores the shadows
-// of rings 1 and 2 before the others, in their order, so the per-step passes advance
-// [0, list.active). A contact of a ring-2 shadow with a ring-3 one is not seen here: the
-// ring-2 body's degree then falls short of its owner's count, so its cluster is left to a
-// rank that sees all of it (Simulation::complete_clusters).
-void keep_shadow_rings(NeighborList &list, Particles &p, std::size_t count, std::size_t owned) {
-  std::vector<std::uint8_t> ring(count, 3);
-  std::fill(ring.begin(), ring.begin() + static_cast<long>(owned), 0);
+// Keeps the pairs with an owned body, and stores the shadows in them (the "first ring")
+// before the other shadows, in their order, so the per-step passes advance [0, list.active).
+// Every contact this rank detects then has an owned body, and every contact of an owned body
+// is detected here: the contacts of a cluster that spans ranks are put together from their
+// owners' records (Simulation::resolve_across_ranks). Shadows past list.active are not
+// advanced until the next rebuild replaces them.
+void keep_first_ring(NeighborList &list, Particles &p, std::size_t count, std::size_t owned) {
+  std::vector<std::uint8_t> ring1(count, 0);
   const std::size_t npairs = list.pair_count();
-  for (int r = 1; r <= 2; ++r)
-    for (std::size_t k = 0; k < npairs; ++k) {
-      const std::uint32_t a = list.pairs[k].first, b = list.pairs[k].second;
-      if (ring[a] == r - 1 && ring[b] > r) ring[b] = static_cast<std::uint8_t>(r);
-      if (ring[b] == r - 1 && ring[a] > r) ring[a] = static_cast<std::uint8_t>(r);
-    }
+  for (std::size_t k = 0; k < npairs; ++k) {
+    const std::uint32_t a = list.pairs[k].first, b = list.pairs[k].second;
+    if (a < owned) ring1[b] = 1;
+    if (b < owned) ring1[a] = 1;
+  }
   std::vector<std::uint32_t> order(owned), where(count);
   for (std::uint32_t i = 0; i < owned; ++i) order[i] = where[i] = i;
   for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t i = owned; i < count; ++i)
-      if ((ring[i] <= 2) == (pass == 0)) {
+      if ((ring1[i] != 0) == (pass == 0)) {
         where[i] = static_cast<std::uint32_t>(order.size());
         order.push_back(static_cast<std::uint32_t>(i));
       }
-    if (pass == 0) list.active = order.size();  // owned bodies and rings 1 and 2
+    if (pass == 0) list.active = order.size();  // owned bodies and the first ring
   }
   p.permute(order);
   std::size_t kept = 0;
   for (std::size_t k = 0; k < npairs; ++k) {
     ListedPair pair = list.pairs[k];
-    if (std::min(ring[pair.first], ring[pair.second]) > 1) continue;
+    if (pair.first >= owned && pair.second >= owned) continue;
     pair.first = where[pair.first];
     pair.second = where[pair.second];
     list.pairs[kept++] = pair;
@@ -245,7 +243,7 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   list.pairs.clear();
   for (const auto &f : found) list.pairs.insert(list.pairs.end(), f.begin(), f.end());
   list.active = count;
-  if (count > owned) keep_shadow_rings(list, p, count, owned);
+  if (count > owned) keep_first_ring(list, p, count, owned);
   arm_watches(list);
   std::fill(p.motion_bound.begin(), p.motion_bound.begin() + static_cast<long>(count), 0.0);
   list.bodies = count;

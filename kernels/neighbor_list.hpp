@@ -73,8 +73,8 @@ struct NeighborList {
   CellList cells;
   long long builds = 0;
   std::size_t bodies = 0;  // body count the list was built for
-  // Bodies [0, active) are owned or in some listed pair: the per-step passes advance only
-  // these. The rest are shadows no listed pair involves (see build_neighbor_list).
+  // Bodies [0, active) are owned or listed with an owned body: the per-step passes advance
+  // only these. The rest are shadows no listed pair involves (see build_neighbor_list).
   std::size_t active = 0;
 
   std::size_t pair_count() const { return pairs.size(); }
@@ -89,11 +89,11 @@ void arm_watches(NeighborList &list);
 // the bodies by cell, owned ones [0, owned) and shadows [owned, count) separately, so the
 // owned bodies stay first (they keep their ids; every result downstream is ordered by id,
 // not by storage).
-// With shadows (count > owned) only pairs that can matter to this rank's clusters are kept:
-// those with an owned body or a shadow listed with an owned body ("first-ring" shadows).
-// Shadows of the second ring (listed with a first-ring one) complete the clusters the rank
-// resolves; shadows further out are moved behind them, past list.active, and are not
-// advanced: their owners resolve their contacts and send the results.
+// With shadows (count > owned) only the pairs with an owned body are kept, and the shadows
+// in them (the "first ring") are stored right after the owned bodies, [owned, list.active);
+// the other shadows are moved behind them and are not advanced. A contact between two
+// shadows is detected by their owners, which send it where a cluster needs it
+// (Simulation::resolve_across_ranks).
 void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, std::size_t owned,
                          const Box &box, const Shape &shape);
 inline void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, const Box &box,

@@ -92,6 +92,10 @@ int main(int argc, char **argv) {
             return std::string(e.what());
           }
         });
+    cmd->add_flag("--results-exchange", options.parallel.results_exchange,
+                  "for tests: resolve a cluster that spans ranks only on the rank that counts "
+                  "it and send its results to the others")
+        ->group("");  // not in --help
     cmd->add_option("--balance-interval", options.parallel.balance.interval,
                     "steps between load comparisons (default 1000)")
         ->check(positive("--balance-interval"));

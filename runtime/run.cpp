@@ -606,6 +606,12 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
         {"largest_shift", sim.balance_record().largest_shift},
         {"partner_reach", sim.domain().partner_reach()},
         {"cuts", sim.domain().cuts()}}},
+      {"spanning_clusters",
+       {{"exchanges", comm.sum("summary", sim.spanning_record().exchanges)},
+        {"resolved", comm.sum("summary", sim.spanning_record().resolved)},
+        {"multi_contact", comm.sum("summary", sim.spanning_record().multi_contact)},
+        {"put_together", comm.sum("summary", sim.spanning_record().put_together)},
+        {"from_results", comm.sum("summary", sim.spanning_record().from_results)}}},
       {"threads", omp_get_max_threads()},
       {"topology", topology.description},
       {"binding", binding},
@@ -649,7 +655,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   nlohmann::json traffic = nlohmann::json::object();
   const double rank_steps =
       static_cast<double>(comm.size()) * std::max<long long>(1, steps_done - first_step);
-  for (const char *name : {"agree", "migrate", "shadows", "degrees", "results", "observe",
+  for (const char *name : {"agree", "migrate", "shadows", "contacts", "results", "observe",
                            "kinetic_energy", "checkpoint", "balance"}) {
     const auto it = comm.traffic().find(name);
     const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <numeric>
 #include <stdexcept>
 
@@ -99,6 +100,7 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
   solver_.max_iterations = static_cast<int>(scene_.solver_max_iterations);
 
   balance_ = parallel.balance;
+  results_exchange_ = parallel.results_exchange;
   if (balance_.interval < 1)
     throw SceneError(
         {fmt::format("--balance-interval must be at least 1, got {}", balance_.interval)});
@@ -283,12 +285,24 @@ void Simulation::midpoint(const MidpointDetection &reached) {
     if (comm_.size() == 1) {
       resolved = resolve_clusters(particles_, shape, contacts_, clusters, {}, solver_);
     } else {
-      // Without an exchange every cluster is made of bodies only this rank holds: complete.
-      const std::vector<char> complete =
-          exchange ? complete_clusters(clusters) : std::vector<char>(clusters.count(), 1);
-      resolved =
-          resolve_clusters(particles_, shape, contacts_, clusters, complete, solver_, owned_);
-      if (exchange) share_results(clusters, complete);
+      // Without an exchange every cluster is made of bodies only this rank holds: resolved
+      // here. With one, the clusters with a body other ranks hold are put together across
+      // ranks (resolve_across_ranks).
+      std::vector<char> local(clusters.count(), 1);
+      if (exchange)
+        for (std::size_t c = 0; c < clusters.count(); ++c)
+          for (std::size_t k = clusters.start[c]; k < clusters.start[c + 1] && local[c]; ++k) {
+            const Contact &ct = contacts_[clusters.order[k]];
+            local[c] = !shared_[ct.i] && !shared_[ct.j];
+          }
+      resolved = resolve_clusters(particles_, shape, contacts_, clusters, local, solver_, owned_);
+      if (exchange) {
+        const ResolutionStats across = resolve_across_ranks(clusters, local);
+        resolved.clusters += across.clusters;
+        resolved.iterations_max = std::max(resolved.iterations_max, across.iterations_max);
+        resolved.unconverged += across.unconverged;
+        interval_.solver_energy_change.add(across.energy_change);
+      }
       // Each contact is counted once in the whole system: by the owner of its lower id.
       for (std::size_t k = 0; k < contacts_.size(); ++k) counted[k] = contacts_[k].i < owned_;
     }
@@ -564,120 +578,329 @@ void Simulation::index_bodies() {
     shared_[i] = i >= owned_ || !holding_.at(particles_.id[i]).holders.empty();
 }
 
-// A cluster seen here is complete when every body in it shows here all the contacts its
-// owner counted (owned bodies always do: everything within their reach is held). Owners
-// tell the holders of their bodies those counts: one exchange.
-std::vector<char> Simulation::complete_clusters(const ContactClusters &cc) {
-  const auto &partners = domain_.partners();
-  std::vector<std::vector<char>> out(partners.size());
-  for (std::size_t b = 0; b < cc.bodies.size(); ++b) {
-    const std::uint32_t i = cc.bodies[b];
-    if (i >= owned_) continue;
-    for (int r : holding_.at(particles_.id[i]).holders) {
-      auto &buf = out[partner_slot(partners, r)];
-      pack(buf, particles_.id[i]);
-      pack(buf, cc.degree[b]);
-    }
+namespace {
+
+constexpr std::uint32_t kDegreeUnknown = 0xffffffffu;
+constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+
+// What a rank knows in one step of the clusters that span ranks: bodies by id (velocities,
+// and the contact count their owner detected), and contacts, from its own detection and
+// from the records its partners sent. A contact seen by two ranks carries the same bits on
+// both (same bodies, same arithmetic), so duplicates are dropped by ids.
+struct ClusterRecords {
+  struct Body {
+    double motion[6] = {};                  // v, w
+    std::uint32_t degree = kDegreeUnknown;  // from the owner
+  };
+  std::map<std::int64_t, Body> bodies;
+  std::vector<Contact> contacts;  // canonical; i and j unused
+
+  void add_body(std::int64_t id, const double (&motion)[6], std::uint32_t degree) {
+    Body &b = bodies[id];
+    std::copy(std::begin(motion), std::end(motion), b.motion);
+    if (degree != kDegreeUnknown) b.degree = degree;
   }
-  std::unordered_map<std::int64_t, std::uint32_t> true_degree;
-  for (const auto &buf : comm_.exchange("degrees", partners, out))
-    for (std::size_t off = 0; off < buf.size();) {
-      const auto id = unpack<std::int64_t>(buf, off);
-      true_degree[id] = unpack<std::uint32_t>(buf, off);
-    }
-  std::vector<char> complete(cc.count(), 1);
-  for (std::size_t c = 0; c < cc.count(); ++c)
-    for (std::size_t k = cc.start[c]; k < cc.start[c + 1] && complete[c]; ++k) {
-      const Contact &ct = contacts_[cc.order[k]];
-      for (std::uint32_t i : {ct.i, ct.j}) {
-        if (i < owned_) continue;
-        const auto it = true_degree.find(particles_.id[i]);
-        if (it == true_degree.end() || it->second != cc.degree[cc.find(i)]) complete[c] = 0;
-      }
-    }
-  return complete;
+  void tidy() {
+    std::sort(contacts.begin(), contacts.end(), canonical_less);
+    contacts.erase(std::unique(contacts.begin(), contacts.end(),
+                               [](const Contact &a, const Contact &b) {
+                                 return a.id_i == b.id_i && a.id_j == b.id_j;
+                               }),
+                   contacts.end());
+  }
+};
+
+void pack_vec(std::vector<char> &buf, const Vec3 &v) {
+  pack(buf, v.x);
+  pack(buf, v.y);
+  pack(buf, v.z);
 }
 
-// Every rank that resolved a cluster sends the new velocities of its bodies and the
-// impulses of its contacts to every other rank that holds one of them: one exchange.
-// Duplicates carry identical bits. An owned body in a cluster nobody could resolve is an
-// error, reported collectively at the next step.
-void Simulation::share_results(const ContactClusters &cc, const std::vector<char> &resolved) {
-  const auto &partners = domain_.partners();
-  std::vector<std::vector<char>> out(partners.size());
-  std::vector<int> targets;
-  for (std::size_t c = 0; c < cc.count(); ++c) {
-    if (!resolved[c]) continue;
-    targets.clear();
-    std::vector<std::uint32_t> members;
-    for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
-      members.push_back(contacts_[cc.order[k]].i);
-      members.push_back(contacts_[cc.order[k]].j);
+Vec3 unpack_vec(const std::vector<char> &buf, std::size_t &off) {
+  Vec3 v;
+  v.x = unpack<double>(buf, off);
+  v.y = unpack<double>(buf, off);
+  v.z = unpack<double>(buf, off);
+  return v;
+}
+
+// One record: the bodies (id, owner's contact count or kDegreeUnknown, v, w) and the contacts
+// (everything the solver reads, and the impulse: 0 before resolution) of a cluster.
+void pack_record(std::vector<char> &buf, const ClusterRecords &r,
+                 const std::vector<std::int64_t> &bodies,
+                 const std::vector<const Contact *> &contacts) {
+  pack(buf, static_cast<std::int32_t>(bodies.size()));
+  for (std::int64_t id : bodies) {
+    const ClusterRecords::Body &b = r.bodies.at(id);
+    pack(buf, id);
+    pack(buf, b.degree);
+    for (double m : b.motion) pack(buf, m);
+  }
+  pack(buf, static_cast<std::int32_t>(contacts.size()));
+  for (const Contact *c : contacts) {
+    pack(buf, c->id_i);
+    pack(buf, c->id_j);
+    for (const Vec3 *v : {&c->normal, &c->arm_i, &c->arm_j, &c->separation}) pack_vec(buf, *v);
+    pack(buf, c->depth);
+    pack(buf, c->inverse_mass);
+    pack(buf, c->impulse);
+  }
+}
+
+void unpack_records(const std::vector<char> &buf, ClusterRecords &r) {
+  for (std::size_t off = 0; off < buf.size();) {
+    const auto nb = unpack<std::int32_t>(buf, off);
+    for (std::int32_t k = 0; k < nb; ++k) {
+      const auto id = unpack<std::int64_t>(buf, off);
+      const auto degree = unpack<std::uint32_t>(buf, off);
+      double motion[6];
+      for (double &m : motion) m = unpack<double>(buf, off);
+      r.add_body(id, motion, degree);
     }
-    std::sort(members.begin(), members.end());
-    members.erase(std::unique(members.begin(), members.end()), members.end());
-    for (std::uint32_t i : members) {
-      const Holding &h = holding_.at(particles_.id[i]);
-      if (h.owner != comm_.rank()) targets.push_back(h.owner);
-      for (int r : h.holders)
-        if (r != comm_.rank()) targets.push_back(r);
-    }
-    std::sort(targets.begin(), targets.end());
-    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
-    for (int r : targets) {
-      auto &buf = out[partner_slot(partners, r)];
-      pack(buf, static_cast<std::int32_t>(members.size()));
-      for (std::uint32_t i : members) {
-        pack(buf, particles_.id[i]);
-        for (const auto *f : {&particles_.vx, &particles_.vy, &particles_.vz, &particles_.wx,
-                              &particles_.wy, &particles_.wz})
-          pack(buf, (*f)[i]);
-      }
-      pack(buf, static_cast<std::int32_t>(cc.start[c + 1] - cc.start[c]));
-      for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
-        const Contact &ct = contacts_[cc.order[k]];
-        pack(buf, ct.id_i);
-        pack(buf, ct.id_j);
-        pack(buf, ct.impulse);
-      }
+    const auto nc = unpack<std::int32_t>(buf, off);
+    for (std::int32_t k = 0; k < nc; ++k) {
+      Contact c;
+      c.id_i = unpack<std::int64_t>(buf, off);
+      c.id_j = unpack<std::int64_t>(buf, off);
+      for (Vec3 *v : {&c.normal, &c.arm_i, &c.arm_j, &c.separation}) *v = unpack_vec(buf, off);
+      c.depth = unpack<double>(buf, off);
+      c.inverse_mass = unpack<double>(buf, off);
+      c.impulse = unpack<double>(buf, off);
+      r.contacts.push_back(c);
     }
   }
+}
+
+// The clusters of a set of records: contacts grouped by connected bodies, each complete when
+// every body's owner's count is known and equals the contacts listed for it.
+struct RecordClusters {
+  std::vector<std::int64_t> ids;                     // every body of a contact, sorted
+  std::vector<std::uint32_t> cluster_of;             // by position in ids
+  std::vector<std::vector<std::uint32_t>> contacts;  // contact indices per cluster, canonical
+  std::vector<std::vector<std::int64_t>> bodies;     // ids per cluster, sorted
+  std::vector<char> complete;
+};
+
+RecordClusters cluster_records(const ClusterRecords &r) {
+  RecordClusters rc;
+  for (const Contact &c : r.contacts) {
+    rc.ids.push_back(c.id_i);
+    rc.ids.push_back(c.id_j);
+  }
+  std::sort(rc.ids.begin(), rc.ids.end());
+  rc.ids.erase(std::unique(rc.ids.begin(), rc.ids.end()), rc.ids.end());
+  const auto at = [&](std::int64_t id) {
+    return static_cast<std::uint32_t>(std::lower_bound(rc.ids.begin(), rc.ids.end(), id) -
+                                      rc.ids.begin());
+  };
+  std::vector<std::uint32_t> parent(rc.ids.size()), degree(rc.ids.size(), 0);
+  std::iota(parent.begin(), parent.end(), 0u);
+  const auto root = [&](std::uint32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (const Contact &c : r.contacts) {
+    const std::uint32_t a = root(at(c.id_i)), b = root(at(c.id_j));
+    ++degree[at(c.id_i)];
+    ++degree[at(c.id_j)];
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+  std::vector<std::uint32_t> number(rc.ids.size(), kDegreeUnknown);
+  rc.cluster_of.resize(rc.ids.size());
+  for (std::uint32_t b = 0; b < rc.ids.size(); ++b) {
+    const std::uint32_t top = root(b);
+    if (number[top] == kDegreeUnknown) {
+      number[top] = static_cast<std::uint32_t>(rc.bodies.size());
+      rc.bodies.emplace_back();
+      rc.contacts.emplace_back();
+      rc.complete.push_back(1);
+    }
+    const std::uint32_t c = rc.cluster_of[b] = number[top];
+    rc.bodies[c].push_back(rc.ids[b]);
+    const auto it = r.bodies.find(rc.ids[b]);
+    if (it == r.bodies.end() || it->second.degree != degree[b]) rc.complete[c] = 0;
+  }
+  for (std::uint32_t k = 0; k < r.contacts.size(); ++k)
+    rc.contacts[rc.cluster_of[at(r.contacts[k].id_i)]].push_back(k);
+  return rc;
+}
+
+}  // namespace
+
+// Clusters with a body that other ranks hold (shadows, or owned bodies with shadow copies):
+// every rank detects exactly the contacts of the bodies it owns (the pair list keeps the
+// pairs with an owned body), so a cluster's contacts are the union of its owners' records.
+// In one exchange each rank sends, for each such cluster it sees, its contacts, the
+// velocities of the bodies and the contact counts of the bodies it owns, to every owner and
+// holder of those bodies. A rank merges what it gets with its own; a merged cluster is
+// complete when every body's count is its owner's, and then the rank resolves it itself:
+// the same contacts in the same order with the same velocities give the same bits on every
+// rank, so no results travel. With two ranks every rank that holds a body of a cluster gets
+// all of it this way (ARCHITECTURE.md, step 4). With more, a cluster can reach a rank only
+// in part; a second exchange then sends every resolved cluster's velocities and impulses to
+// all partners. An owned body left in an unresolved cluster is an error, reported
+// collectively at the next step. Returns the solver's statistics of the clusters counted
+// here (those whose first contact's lower-id body this rank owns).
+ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
+                                                 const std::vector<char> &local) {
+  const auto &partners = domain_.partners();
+  const int me = comm_.rank();
+  ClusterRecords records;
+  std::vector<std::vector<char>> out(partners.size());
+  std::vector<std::int64_t> ids;
+  std::vector<const Contact *> mine;
+  std::vector<int> targets;
+  for (std::size_t c = 0; c < cc.count(); ++c) {
+    if (local[c]) continue;
+    ids.clear();
+    mine.clear();
+    targets.clear();
+    for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
+      const Contact &ct = contacts_[cc.order[k]];
+      mine.push_back(&ct);
+      records.contacts.push_back(ct);
+      for (std::uint32_t i : {ct.i, ct.j}) {
+        const std::int64_t id = particles_.id[i];
+        if (records.bodies.count(id) == 0) {
+          const double motion[6] = {particles_.vx[i], particles_.vy[i], particles_.vz[i],
+                                    particles_.wx[i], particles_.wy[i], particles_.wz[i]};
+          records.add_body(id, motion, i < owned_ ? cc.degree[cc.find(i)] : kDegreeUnknown);
+        }
+        ids.push_back(id);
+        const Holding &h = holding_.at(id);
+        if (h.owner != me) targets.push_back(h.owner);
+        for (int r : h.holders)
+          if (r != me) targets.push_back(r);
+      }
+    }
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    std::sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    for (int r : targets) pack_record(out[partner_slot(partners, r)], records, ids, mine);
+  }
+  for (const auto &buf : comm_.exchange("contacts", partners, out)) unpack_records(buf, records);
+  records.tidy();
+  const RecordClusters rc = cluster_records(records);
+
+  // The complete clusters with a body this rank advances, on a scratch set of their bodies:
+  // those this rank owns first, so that the solver counts the clusters whose first contact's
+  // lower-id body is owned here.
+  std::vector<char> take(rc.bodies.size(), 0);
+  const auto local_index = [&](std::int64_t id) -> std::size_t {
+    const auto it = index_.find(id);
+    return it == index_.end() || it->second >= advanced() ? kNone : it->second;
+  };
+  std::vector<std::int64_t> own, other;
+  for (std::size_t c = 0; c < rc.bodies.size(); ++c) {
+    bool held = false;
+    for (std::int64_t id : rc.bodies[c]) held = held || local_index(id) != kNone;
+    take[c] = held && rc.complete[c];
+    if (results_exchange_)  // tests: only the rank that counts the cluster resolves it
+      take[c] = take[c] && local_index(records.contacts[rc.contacts[c].front()].id_i) < owned_;
+    if (!take[c]) continue;
+    for (std::int64_t id : rc.bodies[c]) (local_index(id) < owned_ ? own : other).push_back(id);
+  }
+  std::sort(own.begin(), own.end());
+  std::sort(other.begin(), other.end());
+  const std::size_t counted = own.size();
+  own.insert(own.end(), other.begin(), other.end());
+  Particles work;
+  work.resize(own.size());
+  std::unordered_map<std::int64_t, std::uint32_t> slot;
+  for (std::size_t k = 0; k < own.size(); ++k) {
+    const auto &m = records.bodies.at(own[k]).motion;
+    work.id[k] = own[k];
+    work.set_velocity(k, {m[0], m[1], m[2]});
+    work.set_angular_velocity(k, {m[3], m[4], m[5]});
+    slot[own[k]] = static_cast<std::uint32_t>(k);
+  }
+  std::vector<Contact> solved;
+  for (std::size_t c = 0; c < rc.bodies.size(); ++c)
+    if (take[c])
+      for (std::uint32_t k : rc.contacts[c]) {
+        Contact ct = records.contacts[k];
+        ct.i = slot.at(ct.id_i);
+        ct.j = slot.at(ct.id_j);
+        solved.push_back(ct);
+      }
+  std::sort(solved.begin(), solved.end(), canonical_less);
+  const ResolutionStats stats =
+      resolve_clusters(work, scene_.shape, solved, find_clusters(solved), {}, solver_, counted);
+  ++spanning_.exchanges;
+  for (std::size_t c = 0; c < rc.bodies.size(); ++c) {
+    if (!take[c]) continue;
+    ++spanning_.resolved;
+    spanning_.multi_contact += rc.contacts[c].size() > 1;
+    bool remote = false;
+    for (std::uint32_t k : rc.contacts[c])
+      remote = remote || (local_index(records.contacts[k].id_i) >= owned_ &&
+                          local_index(records.contacts[k].id_j) >= owned_);
+    spanning_.put_together += remote;
+  }
+
+  // The results: velocities of the bodies held here, impulses of this rank's contacts.
   std::vector<char> settled(particles_.size(), 0);
-  for (std::size_t c = 0; c < cc.count(); ++c)
-    if (resolved[c])
-      for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k)
-        settled[contacts_[cc.order[k]].i] = settled[contacts_[cc.order[k]].j] = 1;
-  for (const auto &buf : comm_.exchange("results", partners, out))
-    for (std::size_t off = 0; off < buf.size();) {
-      const auto nb = unpack<std::int32_t>(buf, off);
-      for (std::int32_t b = 0; b < nb; ++b) {
-        const auto id = unpack<std::int64_t>(buf, off);
-        double v[6];
-        for (double &x : v) x = unpack<double>(buf, off);
-        const auto it = index_.find(id);
-        if (it == index_.end()) continue;
-        const std::uint32_t i = it->second;
-        particles_.set_velocity(i, {v[0], v[1], v[2]});
-        particles_.set_angular_velocity(i, {v[3], v[4], v[5]});
-        shared_in_.push_back(i);  // its motion constants are due (midpoint)
-        settled[i] = 1;
-      }
-      const auto nk = unpack<std::int32_t>(buf, off);
-      for (std::int32_t k = 0; k < nk; ++k) {
-        Contact probe;
-        probe.id_i = unpack<std::int64_t>(buf, off);
-        probe.id_j = unpack<std::int64_t>(buf, off);
-        const double impulse = unpack<double>(buf, off);
-        const auto it = std::lower_bound(contacts_.begin(), contacts_.end(), probe, canonical_less);
-        if (it != contacts_.end() && it->id_i == probe.id_i && it->id_j == probe.id_j)
-          it->impulse = impulse;
-      }
+  const auto set_body = [&](std::int64_t id, const double(&m)[6]) {
+    const std::size_t i = local_index(id);
+    if (i == kNone || settled[i]) return;
+    particles_.set_velocity(i, {m[0], m[1], m[2]});
+    particles_.set_angular_velocity(i, {m[3], m[4], m[5]});
+    shared_in_.push_back(static_cast<std::uint32_t>(i));  // motion constants due (midpoint)
+    settled[i] = 1;
+  };
+  const auto set_impulse = [&](const Contact &probe, double impulse) {
+    const auto it = std::lower_bound(contacts_.begin(), contacts_.end(), probe, canonical_less);
+    if (it != contacts_.end() && it->id_i == probe.id_i && it->id_j == probe.id_j)
+      it->impulse = impulse;
+  };
+  for (std::size_t k = 0; k < work.size(); ++k) {
+    const double m[6] = {work.vx[k], work.vy[k], work.vz[k], work.wx[k], work.wy[k], work.wz[k]};
+    set_body(work.id[k], m);
+  }
+  for (const Contact &ct : solved) set_impulse(ct, ct.impulse);
+
+  if (comm_.size() > 2 || results_exchange_) {
+    // Clusters that reached a rank only in part: the velocities and impulses of every
+    // cluster resolved here, to all partners (duplicates carry the same bits).
+    std::vector<char> buf;
+    ClusterRecords done;
+    for (std::size_t k = 0; k < work.size(); ++k) {
+      const double m[6] = {work.vx[k], work.vy[k], work.vz[k], work.wx[k], work.wy[k], work.wz[k]};
+      done.add_body(work.id[k], m, kDegreeUnknown);
     }
-  for (std::uint32_t i : cc.bodies)
-    if (i < owned_ && !settled[i]) {
-      pending_unresolved_ = std::max(pending_unresolved_, 1.0);
-      pending_step_ = step_ + 1;
+    std::vector<const Contact *> all;
+    for (const Contact &ct : solved) all.push_back(&ct);
+    if (!solved.empty()) {
+      std::vector<std::int64_t> every(own);
+      std::sort(every.begin(), every.end());
+      pack_record(buf, done, every, all);
     }
+    std::vector<std::vector<char>> results(partners.size(), buf);
+    for (const auto &in : comm_.exchange("results", partners, results)) {
+      ClusterRecords got;
+      unpack_records(in, got);
+      for (const auto &[id, b] : got.bodies) {
+        const std::size_t i = local_index(id);
+        spanning_.from_results += i != kNone && !settled[i];
+        set_body(id, b.motion);
+      }
+      for (const Contact &ct : got.contacts) set_impulse(ct, ct.impulse);
+    }
+  }
+  for (std::size_t c = 0; c < cc.count(); ++c) {
+    if (local[c]) continue;
+    for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
+      const Contact &ct = contacts_[cc.order[k]];
+      for (std::uint32_t i : {ct.i, ct.j})
+        if (i < owned_ && !settled[i]) {
+          pending_unresolved_ =
+              std::max(pending_unresolved_, static_cast<double>(cc.start[c + 1] - cc.start[c]));
+          pending_step_ = step_ + 1;
+        }
+    }
+  }
+  return stats;
 }
 
 void Simulation::apply_thermostat() {

@@ -1,7 +1,8 @@
 // The state of a run and one time step (SPEC.md sections 3 and 7). `step()` reads like the
 // algorithm: half step, agree on rebuilds (one max-reduction), redistribute bodies and
 // rebuild the pair list if it expired, detect, resolve (with one exchange of contact
-// degrees and one of results when bodies of a cluster live on several ranks), half step,
+// records when bodies of a cluster live on several ranks; a second, of results, on more
+// than two ranks), half step,
 // thermostat. Each phase is a named, timed call into kernels/; every communication step
 // is a named, counted call into runtime/comm. One rank runs the same code with no
 // partners. Physics that breaks (overlap beyond run.max_overlap, NaN) throws PhysicsError
@@ -39,6 +40,10 @@ class PhysicsError : public std::runtime_error {
 struct ParallelOptions {
   std::array<int, 3> grid{0, 0, 0};  // ranks per axis; zeros: MPI_Dims_create decides
   BalanceOptions balance;            // moving the cuts (runtime/balance.hpp)
+  // For tests: a rank resolves only the spanning clusters whose first contact's lower-id
+  // body it owns, and takes the others from the results exchange, which then runs on any
+  // rank count (it is otherwise needed on more than two ranks only, and rarely).
+  bool results_exchange = false;
 };
 
 // What the load balancer did (runtime/balance.hpp); the same on every rank.
@@ -51,6 +56,16 @@ struct BalanceRecord {
   double max_imbalance = 0.0;
   double largest_shift = 0.0;  // of one cut at one rebuild (D); moved in stages past half
                                // the partner reach
+};
+
+// Clusters with bodies on several ranks (Simulation::resolve_across_ranks), this rank's
+// counts since it started: a diagnostic of the protocol, not restored by a restart.
+struct SpanningRecord {
+  long long exchanges = 0;      // steps with an exchange of contact records
+  long long resolved = 0;       // clusters this rank resolved from merged records
+  long long multi_contact = 0;  // of those, with more than one contact
+  long long put_together = 0;   // of those, with a contact this rank did not detect
+  long long from_results = 0;   // bodies set by another rank's results (more than two ranks)
 };
 
 // Running totals since the last call to Simulation::take_interval(), for this rank's
@@ -123,6 +138,7 @@ class Simulation {
   const Domain &domain() const { return domain_; }
   const BalanceOptions &balance_options() const { return balance_; }
   const BalanceRecord &balance_record() const { return balanced_; }
+  const SpanningRecord &spanning_record() const { return spanning_; }
 
   // This rank's totals since the previous call; resets them.
   IntervalTotals take_interval();
@@ -189,8 +205,10 @@ class Simulation {
   bool touches_boundary() const;
   void migrate();
   void redistribute();
-  std::vector<char> complete_clusters(const ContactClusters &clusters);
-  void share_results(const ContactClusters &clusters, const std::vector<char> &resolved);
+  // The clusters with local[c] == 0 (a body other ranks hold): put together from every
+  // owner's contacts and resolved (see simulation.cpp). Collective over partners.
+  ResolutionStats resolve_across_ranks(const ContactClusters &clusters,
+                                       const std::vector<char> &local);
   void apply_thermostat();
   // Collective, every balance_.interval steps: compares the ranks' loads and, past the
   // threshold, sets new cuts for the next rebuild (forcing one when that pays).
@@ -229,8 +247,10 @@ class Simulation {
   bool stop_agreed_ = false;
   BalanceOptions balance_;
   BalanceRecord balanced_;
-  double busy_mark_ = 0.0;  // compute seconds at the last balance check
-  Cuts pending_cuts_;       // new cuts for the next rebuild (empty: none)
+  SpanningRecord spanning_;
+  bool results_exchange_ = false;  // ParallelOptions::results_exchange
+  double busy_mark_ = 0.0;         // compute seconds at the last balance check
+  Cuts pending_cuts_;              // new cuts for the next rebuild (empty: none)
   bool force_rebuild_ = false;
 };
 
