@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <map>
 #include <numeric>
 #include <stdexcept>
 
@@ -583,30 +582,44 @@ namespace {
 constexpr std::uint32_t kDegreeUnknown = 0xffffffffu;
 constexpr std::size_t kNone = static_cast<std::size_t>(-1);
 
-// What a rank knows in one step of the clusters that span ranks: bodies by id (velocities,
-// and the contact count their owner detected), and contacts, from its own detection and
-// from the records its partners sent. A contact seen by two ranks carries the same bits on
-// both (same bodies, same arithmetic), so duplicates are dropped by ids.
+// What a rank knows in one step of the clusters that span ranks: bodies (velocities, and
+// the contact count their owner detected) and contacts, from its own detection and from the
+// records its partners sent. A contact seen by two ranks carries the same bits on both (same
+// bodies, same arithmetic), and so does a body's velocity, so duplicates are dropped by id.
 struct ClusterRecords {
   struct Body {
-    double motion[6] = {};                  // v, w
+    std::int64_t id = 0;
     std::uint32_t degree = kDegreeUnknown;  // from the owner
+    double motion[6] = {};                  // v, w
   };
-  std::map<std::int64_t, Body> bodies;
-  std::vector<Contact> contacts;  // canonical; i and j unused
+  std::vector<Body> bodies;       // by id after tidy()
+  std::vector<Contact> contacts;  // canonical after tidy(); i and j unused
 
-  void add_body(std::int64_t id, const double (&motion)[6], std::uint32_t degree) {
-    Body &b = bodies[id];
-    std::copy(std::begin(motion), std::end(motion), b.motion);
-    if (degree != kDegreeUnknown) b.degree = degree;
+  void clear() {
+    bodies.clear();
+    contacts.clear();
   }
+  // Sorts and drops duplicates, keeping a body's owner's count where any record has it.
   void tidy() {
+    std::sort(bodies.begin(), bodies.end(), [](const Body &a, const Body &b) {
+      return a.id != b.id ? a.id < b.id : a.degree < b.degree;
+    });
+    bodies.erase(std::unique(bodies.begin(), bodies.end(),
+                             [](const Body &a, const Body &b) { return a.id == b.id; }),
+                 bodies.end());
     std::sort(contacts.begin(), contacts.end(), canonical_less);
     contacts.erase(std::unique(contacts.begin(), contacts.end(),
                                [](const Contact &a, const Contact &b) {
                                  return a.id_i == b.id_i && a.id_j == b.id_j;
                                }),
                    contacts.end());
+  }
+  // Position of body `id` (present after tidy()).
+  std::uint32_t at(std::int64_t id) const {
+    return static_cast<std::uint32_t>(
+        std::lower_bound(bodies.begin(), bodies.end(), id,
+                         [](const Body &b, std::int64_t v) { return b.id < v; }) -
+        bodies.begin());
   }
 };
 
@@ -626,18 +639,17 @@ Vec3 unpack_vec(const std::vector<char> &buf, std::size_t &off) {
 
 // One record: the bodies (id, owner's contact count or kDegreeUnknown, v, w) and the contacts
 // (everything the solver reads, and the impulse: 0 before resolution) of a cluster.
-void pack_record(std::vector<char> &buf, const ClusterRecords &r,
-                 const std::vector<std::int64_t> &bodies,
-                 const std::vector<const Contact *> &contacts) {
-  pack(buf, static_cast<std::int32_t>(bodies.size()));
-  for (std::int64_t id : bodies) {
-    const ClusterRecords::Body &b = r.bodies.at(id);
-    pack(buf, id);
-    pack(buf, b.degree);
-    for (double m : b.motion) pack(buf, m);
+void pack_record(std::vector<char> &buf, const ClusterRecords::Body *bodies, std::size_t nb,
+                 const Contact *const *contacts, std::size_t nc) {
+  pack(buf, static_cast<std::int32_t>(nb));
+  for (std::size_t k = 0; k < nb; ++k) {
+    pack(buf, bodies[k].id);
+    pack(buf, bodies[k].degree);
+    for (double m : bodies[k].motion) pack(buf, m);
   }
-  pack(buf, static_cast<std::int32_t>(contacts.size()));
-  for (const Contact *c : contacts) {
+  pack(buf, static_cast<std::int32_t>(nc));
+  for (std::size_t k = 0; k < nc; ++k) {
+    const Contact *c = contacts[k];
     pack(buf, c->id_i);
     pack(buf, c->id_j);
     for (const Vec3 *v : {&c->normal, &c->arm_i, &c->arm_j, &c->separation}) pack_vec(buf, *v);
@@ -651,11 +663,11 @@ void unpack_records(const std::vector<char> &buf, ClusterRecords &r) {
   for (std::size_t off = 0; off < buf.size();) {
     const auto nb = unpack<std::int32_t>(buf, off);
     for (std::int32_t k = 0; k < nb; ++k) {
-      const auto id = unpack<std::int64_t>(buf, off);
-      const auto degree = unpack<std::uint32_t>(buf, off);
-      double motion[6];
-      for (double &m : motion) m = unpack<double>(buf, off);
-      r.add_body(id, motion, degree);
+      ClusterRecords::Body b;
+      b.id = unpack<std::int64_t>(buf, off);
+      b.degree = unpack<std::uint32_t>(buf, off);
+      for (double &m : b.motion) m = unpack<double>(buf, off);
+      r.bodies.push_back(b);
     }
     const auto nc = unpack<std::int32_t>(buf, off);
     for (std::int32_t k = 0; k < nc; ++k) {
@@ -671,58 +683,53 @@ void unpack_records(const std::vector<char> &buf, ClusterRecords &r) {
   }
 }
 
-// The clusters of a set of records: contacts grouped by connected bodies, each complete when
-// every body's owner's count is known and equals the contacts listed for it.
+// The clusters of tidy records: contacts grouped by connected bodies (contact indices in
+// canonical order, cluster by cluster), each complete when every body's owner's count is
+// known and equals the contacts listed for it.
 struct RecordClusters {
-  std::vector<std::int64_t> ids;                     // every body of a contact, sorted
-  std::vector<std::uint32_t> cluster_of;             // by position in ids
-  std::vector<std::vector<std::uint32_t>> contacts;  // contact indices per cluster, canonical
-  std::vector<std::vector<std::int64_t>> bodies;     // ids per cluster, sorted
+  std::vector<std::uint32_t> order;  // contact indices grouped by cluster
+  std::vector<std::uint32_t> start;  // cluster c is order[start[c] .. start[c + 1])
+  std::vector<std::uint32_t> cluster_of_body;
   std::vector<char> complete;
+
+  std::size_t count() const { return start.empty() ? 0 : start.size() - 1; }
 };
 
-RecordClusters cluster_records(const ClusterRecords &r) {
-  RecordClusters rc;
-  for (const Contact &c : r.contacts) {
-    rc.ids.push_back(c.id_i);
-    rc.ids.push_back(c.id_j);
-  }
-  std::sort(rc.ids.begin(), rc.ids.end());
-  rc.ids.erase(std::unique(rc.ids.begin(), rc.ids.end()), rc.ids.end());
-  const auto at = [&](std::int64_t id) {
-    return static_cast<std::uint32_t>(std::lower_bound(rc.ids.begin(), rc.ids.end(), id) -
-                                      rc.ids.begin());
-  };
-  std::vector<std::uint32_t> parent(rc.ids.size()), degree(rc.ids.size(), 0);
+void cluster_records(const ClusterRecords &r, RecordClusters &rc) {
+  const std::size_t nb = r.bodies.size(), nc = r.contacts.size();
+  std::vector<std::uint32_t> parent(nb), degree(nb, 0), root_of(nc);
   std::iota(parent.begin(), parent.end(), 0u);
   const auto root = [&](std::uint32_t a) {
     while (parent[a] != a) a = parent[a] = parent[parent[a]];
     return a;
   };
   for (const Contact &c : r.contacts) {
-    const std::uint32_t a = root(at(c.id_i)), b = root(at(c.id_j));
-    ++degree[at(c.id_i)];
-    ++degree[at(c.id_j)];
+    const std::uint32_t i = r.at(c.id_i), j = r.at(c.id_j);
+    ++degree[i];
+    ++degree[j];
+    const std::uint32_t a = root(i), b = root(j);
     if (a != b) parent[std::max(a, b)] = std::min(a, b);
   }
-  std::vector<std::uint32_t> number(rc.ids.size(), kDegreeUnknown);
-  rc.cluster_of.resize(rc.ids.size());
-  for (std::uint32_t b = 0; b < rc.ids.size(); ++b) {
-    const std::uint32_t top = root(b);
-    if (number[top] == kDegreeUnknown) {
-      number[top] = static_cast<std::uint32_t>(rc.bodies.size());
-      rc.bodies.emplace_back();
-      rc.contacts.emplace_back();
-      rc.complete.push_back(1);
+  for (std::size_t k = 0; k < nc; ++k) root_of[k] = root(r.at(r.contacts[k].id_i));
+  rc.order.resize(nc);
+  std::iota(rc.order.begin(), rc.order.end(), 0u);
+  std::stable_sort(rc.order.begin(), rc.order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return root_of[a] < root_of[b]; });
+  rc.start.clear();
+  std::vector<std::uint32_t> number(nb, kDegreeUnknown);
+  for (std::size_t k = 0; k < nc; ++k)
+    if (k == 0 || root_of[rc.order[k]] != root_of[rc.order[k - 1]]) {
+      number[root_of[rc.order[k]]] = static_cast<std::uint32_t>(rc.start.size());
+      rc.start.push_back(static_cast<std::uint32_t>(k));
     }
-    const std::uint32_t c = rc.cluster_of[b] = number[top];
-    rc.bodies[c].push_back(rc.ids[b]);
-    const auto it = r.bodies.find(rc.ids[b]);
-    if (it == r.bodies.end() || it->second.degree != degree[b]) rc.complete[c] = 0;
+  rc.start.push_back(static_cast<std::uint32_t>(nc));
+  rc.complete.assign(rc.count(), 1);
+  rc.cluster_of_body.assign(nb, kDegreeUnknown);
+  for (std::uint32_t b = 0; b < nb; ++b) {
+    if (degree[b] == 0) continue;  // a body of no contact (none are sent)
+    const std::uint32_t c = rc.cluster_of_body[b] = number[root(b)];
+    if (r.bodies[b].degree != degree[b]) rc.complete[c] = 0;
   }
-  for (std::uint32_t k = 0; k < r.contacts.size(); ++k)
-    rc.contacts[rc.cluster_of[at(r.contacts[k].id_i)]].push_back(k);
-  return rc;
 }
 
 }  // namespace
@@ -746,13 +753,14 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
   const auto &partners = domain_.partners();
   const int me = comm_.rank();
   ClusterRecords records;
-  std::vector<std::vector<char>> out(partners.size());
-  std::vector<std::int64_t> ids;
+  std::vector<std::vector<char>> &out = spanning_out_;
+  out.resize(partners.size());
+  for (auto &o : out) o.clear();
   std::vector<const Contact *> mine;
   std::vector<int> targets;
   for (std::size_t c = 0; c < cc.count(); ++c) {
     if (local[c]) continue;
-    ids.clear();
+    const std::size_t first_body = records.bodies.size();
     mine.clear();
     targets.clear();
     for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
@@ -760,89 +768,102 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
       mine.push_back(&ct);
       records.contacts.push_back(ct);
       for (std::uint32_t i : {ct.i, ct.j}) {
-        const std::int64_t id = particles_.id[i];
-        if (records.bodies.count(id) == 0) {
-          const double motion[6] = {particles_.vx[i], particles_.vy[i], particles_.vz[i],
-                                    particles_.wx[i], particles_.wy[i], particles_.wz[i]};
-          records.add_body(id, motion, i < owned_ ? cc.degree[cc.find(i)] : kDegreeUnknown);
-        }
-        ids.push_back(id);
-        const Holding &h = holding_.at(id);
+        ClusterRecords::Body b;
+        b.id = particles_.id[i];
+        if (std::any_of(records.bodies.begin() + static_cast<long>(first_body),
+                        records.bodies.end(),
+                        [&](const ClusterRecords::Body &o) { return o.id == b.id; }))
+          continue;
+        b.degree = i < owned_ ? cc.degree[cc.find(i)] : kDegreeUnknown;
+        const double m[6] = {particles_.vx[i], particles_.vy[i], particles_.vz[i],
+                             particles_.wx[i], particles_.wy[i], particles_.wz[i]};
+        std::copy(std::begin(m), std::end(m), b.motion);
+        records.bodies.push_back(b);
+        const Holding &h = holding_.at(b.id);
         if (h.owner != me) targets.push_back(h.owner);
         for (int r : h.holders)
           if (r != me) targets.push_back(r);
       }
     }
-    std::sort(ids.begin(), ids.end());
-    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
     std::sort(targets.begin(), targets.end());
     targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
-    for (int r : targets) pack_record(out[partner_slot(partners, r)], records, ids, mine);
+    for (int r : targets)
+      pack_record(out[partner_slot(partners, r)], records.bodies.data() + first_body,
+                  records.bodies.size() - first_body, mine.data(), mine.size());
   }
   for (const auto &buf : comm_.exchange("contacts", partners, out)) unpack_records(buf, records);
   records.tidy();
-  const RecordClusters rc = cluster_records(records);
+  RecordClusters rc;
+  cluster_records(records, rc);
 
   // The complete clusters with a body this rank advances, on a scratch set of their bodies:
   // those this rank owns first, so that the solver counts the clusters whose first contact's
   // lower-id body is owned here.
-  std::vector<char> take(rc.bodies.size(), 0);
   const auto local_index = [&](std::int64_t id) -> std::size_t {
     const auto it = index_.find(id);
     return it == index_.end() || it->second >= advanced() ? kNone : it->second;
   };
-  std::vector<std::int64_t> own, other;
-  for (std::size_t c = 0; c < rc.bodies.size(); ++c) {
-    bool held = false;
-    for (std::int64_t id : rc.bodies[c]) held = held || local_index(id) != kNone;
-    take[c] = held && rc.complete[c];
+  std::vector<std::size_t> where(records.bodies.size());
+  for (std::size_t b = 0; b < records.bodies.size(); ++b)
+    where[b] = local_index(records.bodies[b].id);
+  std::vector<char> take(rc.count(), 0);
+  for (std::size_t b = 0; b < records.bodies.size(); ++b)
+    if (where[b] != kNone && rc.cluster_of_body[b] != kDegreeUnknown)
+      take[rc.cluster_of_body[b]] = 1;  // held here
+  for (std::size_t c = 0; c < rc.count(); ++c) {
+    take[c] = take[c] && rc.complete[c];
     if (results_exchange_)  // tests: only the rank that counts the cluster resolves it
-      take[c] = take[c] && local_index(records.contacts[rc.contacts[c].front()].id_i) < owned_;
-    if (!take[c]) continue;
-    for (std::int64_t id : rc.bodies[c]) (local_index(id) < owned_ ? own : other).push_back(id);
+      take[c] = take[c] && where[records.at(records.contacts[rc.order[rc.start[c]]].id_i)] < owned_;
   }
-  std::sort(own.begin(), own.end());
-  std::sort(other.begin(), other.end());
-  const std::size_t counted = own.size();
-  own.insert(own.end(), other.begin(), other.end());
-  Particles work;
-  work.resize(own.size());
-  std::unordered_map<std::int64_t, std::uint32_t> slot;
-  for (std::size_t k = 0; k < own.size(); ++k) {
-    const auto &m = records.bodies.at(own[k]).motion;
-    work.id[k] = own[k];
-    work.set_velocity(k, {m[0], m[1], m[2]});
-    work.set_angular_velocity(k, {m[3], m[4], m[5]});
-    slot[own[k]] = static_cast<std::uint32_t>(k);
+  // Scratch slots: owned bodies first, each group in id order (records are by id).
+  std::vector<std::uint32_t> slot(records.bodies.size(), kDegreeUnknown);
+  std::size_t counted = 0, n = 0;
+  for (int pass = 0; pass < 2; ++pass)
+    for (std::size_t b = 0; b < records.bodies.size(); ++b) {
+      const std::uint32_t c = rc.cluster_of_body[b];
+      if (c == kDegreeUnknown || !take[c] || (where[b] < owned_) != (pass == 0)) continue;
+      slot[b] = static_cast<std::uint32_t>(n++);
+      if (pass == 0) counted = n;
+    }
+  Particles &work = spanning_bodies_;
+  work.resize(n);
+  for (std::size_t b = 0; b < records.bodies.size(); ++b) {
+    if (slot[b] == kDegreeUnknown) continue;
+    const ClusterRecords::Body &body = records.bodies[b];
+    const std::size_t k = slot[b];
+    work.id[k] = body.id;
+    work.set_velocity(k, {body.motion[0], body.motion[1], body.motion[2]});
+    work.set_angular_velocity(k, {body.motion[3], body.motion[4], body.motion[5]});
   }
   std::vector<Contact> solved;
-  for (std::size_t c = 0; c < rc.bodies.size(); ++c)
-    if (take[c])
-      for (std::uint32_t k : rc.contacts[c]) {
-        Contact ct = records.contacts[k];
-        ct.i = slot.at(ct.id_i);
-        ct.j = slot.at(ct.id_j);
-        solved.push_back(ct);
-      }
-  std::sort(solved.begin(), solved.end(), canonical_less);
+  for (const Contact &ct : records.contacts) {  // canonical order
+    const std::uint32_t i = records.at(ct.id_i);
+    if (slot[i] == kDegreeUnknown) continue;
+    solved.push_back(ct);
+    solved.back().i = slot[i];
+    solved.back().j = slot[records.at(ct.id_j)];
+  }
   const ResolutionStats stats =
       resolve_clusters(work, scene_.shape, solved, find_clusters(solved), {}, solver_, counted);
   ++spanning_.exchanges;
-  for (std::size_t c = 0; c < rc.bodies.size(); ++c) {
+  for (std::size_t c = 0; c < rc.count(); ++c) {
     if (!take[c]) continue;
     ++spanning_.resolved;
-    spanning_.multi_contact += rc.contacts[c].size() > 1;
+    spanning_.multi_contact += rc.start[c + 1] - rc.start[c] > 1;
     bool remote = false;
-    for (std::uint32_t k : rc.contacts[c])
-      remote = remote || (local_index(records.contacts[k].id_i) >= owned_ &&
-                          local_index(records.contacts[k].id_j) >= owned_);
+    for (std::size_t k = rc.start[c]; k < rc.start[c + 1]; ++k) {
+      const Contact &ct = records.contacts[rc.order[k]];
+      remote =
+          remote || (where[records.at(ct.id_i)] >= owned_ && where[records.at(ct.id_j)] >= owned_);
+    }
     spanning_.put_together += remote;
   }
 
   // The results: velocities of the bodies held here, impulses of this rank's contacts.
-  std::vector<char> settled(particles_.size(), 0);
-  const auto set_body = [&](std::int64_t id, const double(&m)[6]) {
-    const std::size_t i = local_index(id);
+  std::vector<char> &settled = settled_;
+  settled.resize(particles_.size(), 0);
+  const std::size_t first_settled = shared_in_.size();
+  const auto set_body = [&](std::size_t i, const double *m) {
     if (i == kNone || settled[i]) return;
     particles_.set_velocity(i, {m[0], m[1], m[2]});
     particles_.set_angular_velocity(i, {m[3], m[4], m[5]});
@@ -854,36 +875,35 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
     if (it != contacts_.end() && it->id_i == probe.id_i && it->id_j == probe.id_j)
       it->impulse = impulse;
   };
-  for (std::size_t k = 0; k < work.size(); ++k) {
+  for (std::size_t b = 0; b < records.bodies.size(); ++b) {
+    if (slot[b] == kDegreeUnknown) continue;
+    const std::size_t k = slot[b];
     const double m[6] = {work.vx[k], work.vy[k], work.vz[k], work.wx[k], work.wy[k], work.wz[k]};
-    set_body(work.id[k], m);
+    set_body(where[b], m);
   }
   for (const Contact &ct : solved) set_impulse(ct, ct.impulse);
 
   if (comm_.size() > 2 || results_exchange_) {
     // Clusters that reached a rank only in part: the velocities and impulses of every
     // cluster resolved here, to all partners (duplicates carry the same bits).
-    std::vector<char> buf;
-    ClusterRecords done;
-    for (std::size_t k = 0; k < work.size(); ++k) {
+    std::vector<ClusterRecords::Body> done(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      done[k].id = work.id[k];
       const double m[6] = {work.vx[k], work.vy[k], work.vz[k], work.wx[k], work.wy[k], work.wz[k]};
-      done.add_body(work.id[k], m, kDegreeUnknown);
+      std::copy(std::begin(m), std::end(m), done[k].motion);
     }
     std::vector<const Contact *> all;
     for (const Contact &ct : solved) all.push_back(&ct);
-    if (!solved.empty()) {
-      std::vector<std::int64_t> every(own);
-      std::sort(every.begin(), every.end());
-      pack_record(buf, done, every, all);
-    }
+    std::vector<char> buf;
+    if (!solved.empty()) pack_record(buf, done.data(), done.size(), all.data(), all.size());
     std::vector<std::vector<char>> results(partners.size(), buf);
     for (const auto &in : comm_.exchange("results", partners, results)) {
       ClusterRecords got;
       unpack_records(in, got);
-      for (const auto &[id, b] : got.bodies) {
-        const std::size_t i = local_index(id);
+      for (const ClusterRecords::Body &b : got.bodies) {
+        const std::size_t i = local_index(b.id);
         spanning_.from_results += i != kNone && !settled[i];
-        set_body(id, b.motion);
+        set_body(i, b.motion);
       }
       for (const Contact &ct : got.contacts) set_impulse(ct, ct.impulse);
     }
@@ -900,6 +920,7 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
         }
     }
   }
+  for (std::size_t k = first_settled; k < shared_in_.size(); ++k) settled[shared_in_[k]] = 0;
   return stats;
 }
 

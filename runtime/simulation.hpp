@@ -248,6 +248,12 @@ class Simulation {
   BalanceOptions balance_;
   BalanceRecord balanced_;
   SpanningRecord spanning_;
+  // Scratch of resolve_across_ranks, kept between steps (its allocations were half its time):
+  // by local index, whether a body got its velocities this step (all 0 between calls); the
+  // bodies of the clusters it resolves; its outgoing messages.
+  std::vector<char> settled_;
+  Particles spanning_bodies_;
+  std::vector<std::vector<char>> spanning_out_;
   bool results_exchange_ = false;  // ParallelOptions::results_exchange
   double busy_mark_ = 0.0;         // compute seconds at the last balance check
   Cuts pending_cuts_;              // new cuts for the next rebuild (empty: none)
