@@ -683,6 +683,43 @@ void unpack_records(const std::vector<char> &buf, ClusterRecords &r) {
   }
 }
 
+// Results of one resolved cluster: its bodies' new velocities (id, v, w; no count) and its
+// contacts' impulses (ids, impulse).
+void pack_results(std::vector<char> &buf, const std::vector<ClusterRecords::Body> &bodies,
+                  const std::vector<const Contact *> &contacts) {
+  pack(buf, static_cast<std::int32_t>(bodies.size()));
+  for (const ClusterRecords::Body &b : bodies) {
+    pack(buf, b.id);
+    for (double m : b.motion) pack(buf, m);
+  }
+  pack(buf, static_cast<std::int32_t>(contacts.size()));
+  for (const Contact *c : contacts) {
+    pack(buf, c->id_i);
+    pack(buf, c->id_j);
+    pack(buf, c->impulse);
+  }
+}
+
+void unpack_results(const std::vector<char> &buf, ClusterRecords &r) {
+  for (std::size_t off = 0; off < buf.size();) {
+    const auto nb = unpack<std::int32_t>(buf, off);
+    for (std::int32_t k = 0; k < nb; ++k) {
+      ClusterRecords::Body b;
+      b.id = unpack<std::int64_t>(buf, off);
+      for (double &m : b.motion) m = unpack<double>(buf, off);
+      r.bodies.push_back(b);
+    }
+    const auto nc = unpack<std::int32_t>(buf, off);
+    for (std::int32_t k = 0; k < nc; ++k) {
+      Contact c;
+      c.id_i = unpack<std::int64_t>(buf, off);
+      c.id_j = unpack<std::int64_t>(buf, off);
+      c.impulse = unpack<double>(buf, off);
+      r.contacts.push_back(c);
+    }
+  }
+}
+
 // The clusters of tidy records: contacts grouped by connected bodies (contact indices in
 // canonical order, cluster by cluster), each complete when every body's owner's count is
 // known and equals the contacts listed for it.
@@ -885,21 +922,44 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
 
   if (comm_.size() > 2 || results_exchange_) {
     // Clusters that reached a rank only in part: the velocities and impulses of every
-    // cluster resolved here, to all partners (duplicates carry the same bits).
-    std::vector<ClusterRecords::Body> done(n);
-    for (std::size_t k = 0; k < n; ++k) {
-      done[k].id = work.id[k];
-      const double m[6] = {work.vx[k], work.vy[k], work.vz[k], work.wx[k], work.wy[k], work.wz[k]};
-      std::copy(std::begin(m), std::end(m), done[k].motion);
+    // cluster resolved here, to the owners and holders of its bodies that this rank knows
+    // (duplicates carry the same bits).
+    std::vector<std::vector<char>> &results = spanning_out_;
+    for (auto &o : results) o.clear();
+    std::vector<std::vector<std::uint32_t>> members(rc.count());
+    for (std::size_t b = 0; b < records.bodies.size(); ++b)
+      if (slot[b] != kDegreeUnknown) members[rc.cluster_of_body[b]].push_back(slot[b]);
+    std::vector<ClusterRecords::Body> done;
+    std::vector<const Contact *> impulses;
+    for (std::size_t c = 0; c < rc.count(); ++c) {
+      if (!take[c]) continue;
+      done.clear();
+      impulses.clear();
+      targets.clear();
+      for (std::uint32_t k : members[c]) {
+        ClusterRecords::Body body;
+        body.id = work.id[k];
+        const double m[6] = {work.vx[k], work.vy[k], work.vz[k],
+                             work.wx[k], work.wy[k], work.wz[k]};
+        std::copy(std::begin(m), std::end(m), body.motion);
+        done.push_back(body);
+        const auto h = holding_.find(body.id);
+        if (h == holding_.end()) continue;
+        if (h->second.owner != me) targets.push_back(h->second.owner);
+        for (int r : h->second.holders)
+          if (r != me) targets.push_back(r);
+      }
+      for (std::size_t k = rc.start[c]; k < rc.start[c + 1]; ++k) {
+        const Contact &probe = records.contacts[rc.order[k]];
+        impulses.push_back(&*std::lower_bound(solved.begin(), solved.end(), probe, canonical_less));
+      }
+      std::sort(targets.begin(), targets.end());
+      targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+      for (int r : targets) pack_results(results[partner_slot(partners, r)], done, impulses);
     }
-    std::vector<const Contact *> all;
-    for (const Contact &ct : solved) all.push_back(&ct);
-    std::vector<char> buf;
-    if (!solved.empty()) pack_record(buf, done.data(), done.size(), all.data(), all.size());
-    std::vector<std::vector<char>> results(partners.size(), buf);
     for (const auto &in : comm_.exchange("results", partners, results)) {
       ClusterRecords got;
-      unpack_records(in, got);
+      unpack_results(in, got);
       for (const ClusterRecords::Body &b : got.bodies) {
         const std::size_t i = local_index(b.id);
         spanning_.from_results += i != kNone && !settled[i];
