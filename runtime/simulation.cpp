@@ -637,14 +637,19 @@ Vec3 unpack_vec(const std::vector<char> &buf, std::size_t &off) {
   return v;
 }
 
-// One record: the bodies (id, owner's contact count or kDegreeUnknown, v, w) and the contacts
-// (everything the solver reads, and the impulse: 0 before resolution) of a cluster.
-void pack_record(std::vector<char> &buf, const ClusterRecords::Body *bodies, std::size_t nb,
-                 const Contact *const *contacts, std::size_t nc) {
+// What a message carries of a cluster. A record (the contacts exchange): the bodies (id,
+// owner's contact count or kDegreeUnknown, v, w) and the contacts (everything the solver
+// reads, and the impulse: 0 before resolution). Results (more than two ranks): the bodies'
+// new velocities (id, v, w) and the contacts' impulses (ids, impulse).
+enum class Wire { kRecord, kResults };
+
+void pack_cluster(std::vector<char> &buf, const ClusterRecords::Body *bodies, std::size_t nb,
+                  const Contact *const *contacts, std::size_t nc, Wire wire) {
+  const bool record = wire == Wire::kRecord;
   pack(buf, static_cast<std::int32_t>(nb));
   for (std::size_t k = 0; k < nb; ++k) {
     pack(buf, bodies[k].id);
-    pack(buf, bodies[k].degree);
+    if (record) pack(buf, bodies[k].degree);
     for (double m : bodies[k].motion) pack(buf, m);
   }
   pack(buf, static_cast<std::int32_t>(nc));
@@ -652,20 +657,23 @@ void pack_record(std::vector<char> &buf, const ClusterRecords::Body *bodies, std
     const Contact *c = contacts[k];
     pack(buf, c->id_i);
     pack(buf, c->id_j);
-    for (const Vec3 *v : {&c->normal, &c->arm_i, &c->arm_j, &c->separation}) pack_vec(buf, *v);
-    pack(buf, c->depth);
-    pack(buf, c->inverse_mass);
+    if (record) {
+      for (const Vec3 *v : {&c->normal, &c->arm_i, &c->arm_j, &c->separation}) pack_vec(buf, *v);
+      pack(buf, c->depth);
+      pack(buf, c->inverse_mass);
+    }
     pack(buf, c->impulse);
   }
 }
 
-void unpack_records(const std::vector<char> &buf, ClusterRecords &r) {
+void unpack_clusters(const std::vector<char> &buf, ClusterRecords &r, Wire wire) {
+  const bool record = wire == Wire::kRecord;
   for (std::size_t off = 0; off < buf.size();) {
     const auto nb = unpack<std::int32_t>(buf, off);
     for (std::int32_t k = 0; k < nb; ++k) {
       ClusterRecords::Body b;
       b.id = unpack<std::int64_t>(buf, off);
-      b.degree = unpack<std::uint32_t>(buf, off);
+      if (record) b.degree = unpack<std::uint32_t>(buf, off);
       for (double &m : b.motion) m = unpack<double>(buf, off);
       r.bodies.push_back(b);
     }
@@ -674,46 +682,11 @@ void unpack_records(const std::vector<char> &buf, ClusterRecords &r) {
       Contact c;
       c.id_i = unpack<std::int64_t>(buf, off);
       c.id_j = unpack<std::int64_t>(buf, off);
-      for (Vec3 *v : {&c.normal, &c.arm_i, &c.arm_j, &c.separation}) *v = unpack_vec(buf, off);
-      c.depth = unpack<double>(buf, off);
-      c.inverse_mass = unpack<double>(buf, off);
-      c.impulse = unpack<double>(buf, off);
-      r.contacts.push_back(c);
-    }
-  }
-}
-
-// Results of one resolved cluster: its bodies' new velocities (id, v, w; no count) and its
-// contacts' impulses (ids, impulse).
-void pack_results(std::vector<char> &buf, const std::vector<ClusterRecords::Body> &bodies,
-                  const std::vector<const Contact *> &contacts) {
-  pack(buf, static_cast<std::int32_t>(bodies.size()));
-  for (const ClusterRecords::Body &b : bodies) {
-    pack(buf, b.id);
-    for (double m : b.motion) pack(buf, m);
-  }
-  pack(buf, static_cast<std::int32_t>(contacts.size()));
-  for (const Contact *c : contacts) {
-    pack(buf, c->id_i);
-    pack(buf, c->id_j);
-    pack(buf, c->impulse);
-  }
-}
-
-void unpack_results(const std::vector<char> &buf, ClusterRecords &r) {
-  for (std::size_t off = 0; off < buf.size();) {
-    const auto nb = unpack<std::int32_t>(buf, off);
-    for (std::int32_t k = 0; k < nb; ++k) {
-      ClusterRecords::Body b;
-      b.id = unpack<std::int64_t>(buf, off);
-      for (double &m : b.motion) m = unpack<double>(buf, off);
-      r.bodies.push_back(b);
-    }
-    const auto nc = unpack<std::int32_t>(buf, off);
-    for (std::int32_t k = 0; k < nc; ++k) {
-      Contact c;
-      c.id_i = unpack<std::int64_t>(buf, off);
-      c.id_j = unpack<std::int64_t>(buf, off);
+      if (record) {
+        for (Vec3 *v : {&c.normal, &c.arm_i, &c.arm_j, &c.separation}) *v = unpack_vec(buf, off);
+        c.depth = unpack<double>(buf, off);
+        c.inverse_mass = unpack<double>(buf, off);
+      }
       c.impulse = unpack<double>(buf, off);
       r.contacts.push_back(c);
     }
@@ -825,10 +798,11 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
     std::sort(targets.begin(), targets.end());
     targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
     for (int r : targets)
-      pack_record(out[partner_slot(partners, r)], records.bodies.data() + first_body,
-                  records.bodies.size() - first_body, mine.data(), mine.size());
+      pack_cluster(out[partner_slot(partners, r)], records.bodies.data() + first_body,
+                   records.bodies.size() - first_body, mine.data(), mine.size(), Wire::kRecord);
   }
-  for (const auto &buf : comm_.exchange("contacts", partners, out)) unpack_records(buf, records);
+  for (const auto &buf : comm_.exchange("contacts", partners, out))
+    unpack_clusters(buf, records, Wire::kRecord);
   records.tidy();
   RecordClusters rc;
   cluster_records(records, rc);
@@ -955,11 +929,13 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
       }
       std::sort(targets.begin(), targets.end());
       targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
-      for (int r : targets) pack_results(results[partner_slot(partners, r)], done, impulses);
+      for (int r : targets)
+        pack_cluster(results[partner_slot(partners, r)], done.data(), done.size(), impulses.data(),
+                     impulses.size(), Wire::kResults);
     }
     for (const auto &in : comm_.exchange("results", partners, results)) {
       ClusterRecords got;
-      unpack_results(in, got);
+      unpack_clusters(in, got, Wire::kResults);
       for (const ClusterRecords::Body &b : got.bodies) {
         const std::size_t i = local_index(b.id);
         spanning_.from_results += i != kNone && !settled[i];
