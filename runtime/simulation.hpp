@@ -231,7 +231,7 @@ class Simulation {
   long long detections_ = 0, detections_watched_ = 0;
   std::vector<Contact> contacts_;
   // Bodies whose velocities a step changed (their motion constants are then due): those
-  // other ranks' results set (share_results), and the scratch list of all of them.
+  // resolve_across_ranks set, and the scratch list of all of them.
   std::vector<std::uint32_t> shared_in_, changed_;
   SolverSettings solver_;
   RegionTimers timers_;
