@@ -697,6 +697,13 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
             "last\n",
             balance_mode_name(sim.balance_options().mode), b.checks, b.shifts, b.forced_rebuilds,
             100 * b.first_imbalance, 100 * b.last_imbalance);
+      const auto &sc = summary["spanning_clusters"];
+      fmt::print(
+          "clusters across ranks: {} resolved from merged contact records ({} with several "
+          "contacts, {} needing another rank's contact), {} bodies set by the results "
+          "exchange (summed over ranks)\n",
+          sc["resolved"].get<long long>(), sc["multi_contact"].get<long long>(),
+          sc["put_together"].get<long long>(), sc["from_results"].get<long long>());
     }
     auto pm = [](const Estimate &e) {
       return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
