@@ -438,9 +438,9 @@ void Simulation::report_problems(const std::vector<double> &flags) {
         scene_.dt, scene_.dt / 4));
   if (flags[2] > 0.0)
     fail(fmt::format(
-        "step {}: a cluster of {} touching bodies spans more ranks than the shadow layer "
-        "covers, so no rank could resolve it; run with fewer ranks or a smaller run.dt "
-        "(now {:g})",
+        "step {}: a cluster of touching bodies across ranks ({} contacts seen by its owner) "
+        "reached no rank that holds it in full, so it was not resolved; run with fewer ranks "
+        "(larger subdomains) or a smaller run.dt (now {:g})",
         static_cast<long long>(flags[3]), static_cast<long long>(flags[2]), scene_.dt));
 }
 
