@@ -81,12 +81,13 @@ void build_cell_list(CellList &list, const Particles &p, std::size_t count, cons
   int k = 2;  // cells per reach
   for (int a = 0; a < 3; ++a)
     if (std::floor(side[a] / (reach / 2)) < 5) k = 1;
-  std::array<std::vector<int>, 3> at;  // each body's cell coordinates
+  std::array<std::vector<int>, 3> at;  // each body's cell coordinates in grid `binned`
   std::array<std::vector<char>, 3> occupied;
+  std::array<int, 3> binned{0, 0, 0};
   if (k == 2 && fit && count > 0) {
     // Bodies per occupied cell of one cell per reach, counted over the window of one per
     // reach (the cells themselves, not the box, so this stays local to a rank too).
-    const auto n = grid_for(side, reach, 1);
+    const auto n = binned = grid_for(side, reach, 1);
     coordinates(p, count, side, n, at, occupied);
     std::array<int, 3> origin{}, extent{};
     for (int a = 0; a < 3; ++a) occupied_window(occupied[a], origin[a], extent[a]);
@@ -113,7 +114,7 @@ void build_cell_list(CellList &list, const Particles &p, std::size_t count, cons
     for (int oy : axis_offsets(list.cells[1], k))
       for (int ox : axis_offsets(list.cells[0], k)) list.stencil.push_back({ox, oy, oz});
 
-  coordinates(p, count, side, list.cells, at, occupied);
+  if (binned != list.cells) coordinates(p, count, side, list.cells, at, occupied);
   if (fit && count > 0) {
     for (int a = 0; a < 3; ++a) occupied_window(occupied[a], list.origin[a], list.extent[a]);
   } else {

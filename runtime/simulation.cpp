@@ -595,10 +595,6 @@ struct ClusterRecords {
   std::vector<Body> bodies;       // by id after tidy()
   std::vector<Contact> contacts;  // canonical after tidy(); i and j unused
 
-  void clear() {
-    bodies.clear();
-    contacts.clear();
-  }
   // Sorts and drops duplicates, keeping a body's owner's count where any record has it.
   void tidy() {
     std::sort(bodies.begin(), bodies.end(), [](const Body &a, const Body &b) {
@@ -622,6 +618,17 @@ struct ClusterRecords {
         bodies.begin());
   }
 };
+
+// A body's v and w as one record's six doubles, and back.
+void read_motion(const Particles &p, std::size_t i, double (&m)[6]) {
+  const double v[6] = {p.vx[i], p.vy[i], p.vz[i], p.wx[i], p.wy[i], p.wz[i]};
+  std::copy(std::begin(v), std::end(v), m);
+}
+
+void write_motion(Particles &p, std::size_t i, const double (&m)[6]) {
+  p.set_velocity(i, {m[0], m[1], m[2]});
+  p.set_angular_velocity(i, {m[3], m[4], m[5]});
+}
 
 void pack_vec(std::vector<char> &buf, const Vec3 &v) {
   pack(buf, v.x);
@@ -761,13 +768,24 @@ void cluster_records(const ClusterRecords &r, RecordClusters &rc) {
 ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
                                                  const std::vector<char> &local) {
   const auto &partners = domain_.partners();
-  const int me = comm_.rank();
   ClusterRecords records;
+  std::vector<int> targets;
+  // The ranks other than this one that own or hold body `id` (if this rank holds it).
+  const auto add_targets = [&](std::int64_t id) {
+    const auto h = holding_.find(id);
+    if (h == holding_.end()) return;
+    if (h->second.owner != comm_.rank()) targets.push_back(h->second.owner);
+    for (int r : h->second.holders)
+      if (r != comm_.rank()) targets.push_back(r);
+  };
+  const auto unique_targets = [&] {
+    std::sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+  };
   std::vector<std::vector<char>> &out = spanning_out_;
   out.resize(partners.size());
   for (auto &o : out) o.clear();
   std::vector<const Contact *> mine;
-  std::vector<int> targets;
   for (std::size_t c = 0; c < cc.count(); ++c) {
     if (local[c]) continue;
     const std::size_t first_body = records.bodies.size();
@@ -785,18 +803,12 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
                         [&](const ClusterRecords::Body &o) { return o.id == b.id; }))
           continue;
         b.degree = i < owned_ ? cc.degree[cc.find(i)] : kDegreeUnknown;
-        const double m[6] = {particles_.vx[i], particles_.vy[i], particles_.vz[i],
-                             particles_.wx[i], particles_.wy[i], particles_.wz[i]};
-        std::copy(std::begin(m), std::end(m), b.motion);
+        read_motion(particles_, i, b.motion);
         records.bodies.push_back(b);
-        const Holding &h = holding_.at(b.id);
-        if (h.owner != me) targets.push_back(h.owner);
-        for (int r : h.holders)
-          if (r != me) targets.push_back(r);
+        add_targets(b.id);
       }
     }
-    std::sort(targets.begin(), targets.end());
-    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    unique_targets();
     for (int r : targets)
       pack_cluster(out[partner_slot(partners, r)], records.bodies.data() + first_body,
                    records.bodies.size() - first_body, mine.data(), mine.size(), Wire::kRecord);
@@ -840,11 +852,8 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
   work.resize(n);
   for (std::size_t b = 0; b < records.bodies.size(); ++b) {
     if (slot[b] == kDegreeUnknown) continue;
-    const ClusterRecords::Body &body = records.bodies[b];
-    const std::size_t k = slot[b];
-    work.id[k] = body.id;
-    work.set_velocity(k, {body.motion[0], body.motion[1], body.motion[2]});
-    work.set_angular_velocity(k, {body.motion[3], body.motion[4], body.motion[5]});
+    work.id[slot[b]] = records.bodies[b].id;
+    write_motion(work, slot[b], records.bodies[b].motion);
   }
   std::vector<Contact> solved;
   for (const Contact &ct : records.contacts) {  // canonical order
@@ -874,10 +883,9 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
   std::vector<char> &settled = settled_;
   settled.resize(particles_.size(), 0);
   const std::size_t first_settled = shared_in_.size();
-  const auto set_body = [&](std::size_t i, const double *m) {
+  const auto set_body = [&](std::size_t i, const double(&m)[6]) {
     if (i == kNone || settled[i]) return;
-    particles_.set_velocity(i, {m[0], m[1], m[2]});
-    particles_.set_angular_velocity(i, {m[3], m[4], m[5]});
+    write_motion(particles_, i, m);
     shared_in_.push_back(static_cast<std::uint32_t>(i));  // motion constants due (midpoint)
     settled[i] = 1;
   };
@@ -888,8 +896,8 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
   };
   for (std::size_t b = 0; b < records.bodies.size(); ++b) {
     if (slot[b] == kDegreeUnknown) continue;
-    const std::size_t k = slot[b];
-    const double m[6] = {work.vx[k], work.vy[k], work.vz[k], work.wx[k], work.wy[k], work.wz[k]};
+    double m[6];
+    read_motion(work, slot[b], m);
     set_body(where[b], m);
   }
   for (const Contact &ct : solved) set_impulse(ct, ct.impulse);
@@ -913,22 +921,15 @@ ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
       for (std::uint32_t k : members[c]) {
         ClusterRecords::Body body;
         body.id = work.id[k];
-        const double m[6] = {work.vx[k], work.vy[k], work.vz[k],
-                             work.wx[k], work.wy[k], work.wz[k]};
-        std::copy(std::begin(m), std::end(m), body.motion);
+        read_motion(work, k, body.motion);
         done.push_back(body);
-        const auto h = holding_.find(body.id);
-        if (h == holding_.end()) continue;
-        if (h->second.owner != me) targets.push_back(h->second.owner);
-        for (int r : h->second.holders)
-          if (r != me) targets.push_back(r);
+        add_targets(body.id);
       }
       for (std::size_t k = rc.start[c]; k < rc.start[c + 1]; ++k) {
         const Contact &probe = records.contacts[rc.order[k]];
         impulses.push_back(&*std::lower_bound(solved.begin(), solved.end(), probe, canonical_less));
       }
-      std::sort(targets.begin(), targets.end());
-      targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+      unique_targets();
       for (int r : targets)
         pack_cluster(results[partner_slot(partners, r)], done.data(), done.size(), impulses.data(),
                      impulses.size(), Wire::kResults);
