@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <sstream>
 #include <string_view>
 #include <utility>
@@ -636,9 +637,19 @@ void read_output(Reader &in, Scene &scene) {
   read_at_least(in, "output", "checkpoint_interval", scene.checkpoint_interval, 0);
 }
 
+// Default fourier_kmax: the modes up to |k_a| ~ 1 D^-1 along the longest side, which cover the
+// cubic fit's range (k1^2 <= 2, k3^2 <= 1 D^-2): 10 in the paper's 57 D box, 6 in a 28.5 D box.
+// The cost grows as kmax^3, so a small box does not pay for modes no fit uses.
+int default_fourier_kmax(const Box &box) {
+  const double longest = std::max({box.length.x, box.length.y, box.length.z});
+  if (!std::isfinite(longest) || !(longest > 0.0)) return 10;
+  return static_cast<int>(std::clamp(1.0 + std::round(longest / (2.0 * std::numbers::pi)), 2.0, 64.0));
+}
+
 // The Frank-constant sampling costs nothing unless asked for.
 void read_observables(Reader &in, Scene &scene) {
   in.get("observables", "frank", scene.frank);
+  if (!in.find("observables", "fourier_kmax")) scene.fourier_kmax = default_fourier_kmax(scene.box);
   long long kmax = scene.fourier_kmax;
   if (read_at_least(in, "observables", "fourier_kmax", kmax, 1) &&
       in.check("observables", "fourier_kmax", kmax <= 64, "must be at most 64"))

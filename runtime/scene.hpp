@@ -59,7 +59,7 @@ struct Scene {
   long long checkpoint_interval = 0;  // steps between checkpoints; 0 = at the end (and on a signal)
   // [observables]
   bool frank = false;              // accumulate the Fourier order tensor (Frank constants)
-  int fourier_kmax = 10;           // modes -kmax < k_a < kmax, k != 0
+  int fourier_kmax = 10;           // modes -kmax < k_a < kmax, k != 0; unset: from the box
   long long fourier_interval = 0;  // steps between Fourier samples; 0 = sample_interval
 
   double number_density() const { return static_cast<double>(n) / box.volume(); }

@@ -111,6 +111,13 @@ TEST(Scene, ObservablesSection) {
                                "fourier_interval = 200\n");
   EXPECT_TRUE(on.frank);
   EXPECT_EQ(on.fourier_kmax, 6);
+  // Unset, kmax follows the box: modes up to |k_a| ~ 1 / D (the fits' range), 6 in the everyday
+  // 28.5 D box, 10 in the paper's 57 D box (N = 18432 at the same density).
+  EXPECT_EQ(off.fourier_kmax, 6) << off.box.length.x;
+  const Scene paper = parse_scene(
+      "[system]\nn = 18432\nreduced_density = 0.5\n[init]\nlattice = [8, 48, 48]\n"
+      "[run]\ndt = 1e-4\nsteps = 10\n");
+  EXPECT_EQ(paper.fourier_kmax, 10) << paper.box.length.x;
   EXPECT_EQ(on.fourier_interval, 200);
   try {
     parse_scene(base + "[observables]\nfrank = \"yes\"\nfourier_kmax = 0\n");
