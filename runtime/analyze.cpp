@@ -54,21 +54,64 @@ nlohmann::json merge_estimates(const std::vector<nlohmann::json> &summaries, con
           {"samples", samples}};
 }
 
-nlohmann::json estimate(const FrankEstimate &e) {
+// One estimate of one fit: mean, error (fit), spread (replicas), chi2_dof, bins. A value the
+// fit could not determine (too few bins, not positive) is null, never NaN or negative.
+nlohmann::json estimate(const FrankEstimate &e, double chi2_dof, int bins) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-  return {{"mean", num(e.value)}, {"error", num(e.error)}};
+  return {{"mean", num(e.value)}, {"error", num(e.error)}, {"spread", num(e.spread)},
+          {"chi2_dof", num(chi2_dof)}, {"bins", bins}};
+}
+
+// analysis.json's K1, K2, K3, K3_from_E13, K3_from_E23: {planar, cubic, background} each.
+void add_frank_constants(nlohmann::json &out, const FrankResult &r) {
+  const std::pair<const char *, const FrankModelFit *> models[] = {
+      {"planar", &r.planar}, {"cubic", &r.cubic}, {"background", &r.background}};
+  for (const auto &[name, f] : models) {
+    out["K1"][name] = estimate(f->K1, f->chi2_13, f->bins_13);
+    out["K2"][name] = estimate(f->K2, f->chi2_23, f->bins_23);
+    out["K3"][name] = estimate(f->K3, f->chi2_dof(), f->bins_13 + f->bins_23);
+    out["K3_from_E13"][name] = estimate(f->K3_13, f->chi2_13, f->bins_13);
+    out["K3_from_E23"][name] = estimate(f->K3_23, f->chi2_23, f->bins_23);
+  }
 }
 
 std::string pm(const nlohmann::json &e) {
-  if (!e.at("mean").is_number()) return "n/a";
+  if (!e.at("mean").is_number()) return "not determined";
   if (!e.at("error").is_number()) return fmt::format("{:.4f}", e.at("mean").get<double>());
   return fmt::format("{:.4f} +/- {:.4f}", e.at("mean").get<double>(), e.at("error").get<double>());
+}
+
+std::string chi2_text(const nlohmann::json &e) {
+  return e.at("chi2_dof").is_number() ? fmt::format("{:.2f}", e.at("chi2_dof").get<double>()) : "-";
+}
+
+void print_frank(const nlohmann::json &out, const FrankFitOptions &o) {
+  fmt::print("  Frank constants (K* = beta D K), {} Fourier samples; {}\n",
+             out["fourier_samples"].get<long long>(), out["frank"]["error_method"].get<std::string>());
+  fmt::print("  {:<9}{:>22}{:>22}{:>22}\n", "", fmt::format("planar (k^2<{:g})", o.planar_max_k2),
+             fmt::format("cubic ({:g}, {:g}) *", o.cubic_max_k1sq, o.cubic_max_k3sq), "background");
+  for (const char *k : {"K1", "K2", "K3", "K3_from_E13", "K3_from_E23"}) {
+    const std::string label = std::string(k).size() > 2 ? "K3(E" + std::string(k).substr(9) + ")" : k;
+    fmt::print("  {:<9}{:>22}{:>22}{:>22}\n", label, pm(out[k]["planar"]), pm(out[k]["cubic"]),
+               pm(out[k]["background"]));
+  }
+  fmt::print("  {:<9}{:>22}{:>22}{:>22}\n", "chi2/dof", chi2_text(out["K3"]["planar"]),
+             chi2_text(out["K3"]["cubic"]), chi2_text(out["K3"]["background"]));
+  fmt::print("  * the recommended fit (docs/frank.md); errors inflated by sqrt(chi2/dof) where above 1\n");
 }
 
 }  // namespace
 
 nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   if (options.run_dirs.empty()) throw std::runtime_error("analyze: no run directory given");
+  for (size_t a = 0; a < options.run_dirs.size(); ++a)
+    for (size_t b = 0; b < a; ++b) {
+      std::error_code ea, eb;
+      if (fs::equivalent(options.run_dirs[a], options.run_dirs[b], ea) && !ea && !eb)
+        throw std::runtime_error(fmt::format(
+            "analyze: {} and {} are the same run directory; each run may be given once",
+            options.run_dirs[b], options.run_dirs[a]));
+    }
   std::vector<nlohmann::json> summaries;
   std::vector<FrankAccumulator> frank;
   for (const auto &dir : options.run_dirs) {
@@ -94,15 +137,9 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
                     "[observables] frank = true",
                     frank.size(), options.run_dirs.size()));
   if (!frank.empty()) {
-    FrankFitOptions fo;
-    fo.subtract_self_term = options.subtract_self_term;
-    const FrankResult r = fit_frank(frank, fo);
-    for (const char *k : {"K1", "K2", "K3"}) {
-      const auto pick = [&](const FrankModelFit &f) {
-        return std::string(k) == "K1" ? f.K1 : std::string(k) == "K2" ? f.K2 : f.K3;
-      };
-      out[k] = {{"planar", estimate(pick(r.planar))}, {"cubic", estimate(pick(r.cubic))}};
-    }
+    const FrankResult r = fit_frank(frank, options.frank);
+    add_frank_constants(out, r);
+    out["frank_recommended_fit"] = "cubic";  // why: docs/frank.md
     out["frank"] = to_json(r);
     out["fourier_samples"] = r.samples;
   }
@@ -117,14 +154,7 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   fmt::print("analysis of {} run(s):\n", options.run_dirs.size());
   fmt::print("  order parameter S   {}\n", pm(out["order_parameter"]));
   fmt::print("  pressure P*         {}\n", pm(out["pressure_star"]));
-  if (out.contains("K1")) {
-    fmt::print("  Frank constants (K* = beta D K), {} Fourier samples, errors: {}\n",
-               out["fourier_samples"].get<long long>(),
-               out["frank"]["error_method"].get<std::string>());
-    fmt::print("  {:<6}{:>24}{:>24}\n", "", "planar (k^2 < 0.1)", "cubic");
-    for (const char *k : {"K1", "K2", "K3"})
-      fmt::print("  {:<6}{:>24}{:>24}\n", k, pm(out[k]["planar"]), pm(out[k]["cubic"]));
-  }
+  if (out.contains("K1")) print_frank(out, options.frank);
   fmt::print("  written             {}\n", (outdir / "analysis.json").string());
 
   if (options.plots) {

@@ -1,12 +1,14 @@
 // `hardrod analyze DIR [DIR ...]`: merges independent runs (different seeds) of one scene.
 // S and P* from each run's summary.json; the Frank constants from each run's frank.json
-// (the accumulated Fourier order tensor), fitted by kernels/frank_fit (plane for
-// k^2 < 0.1, bivariate cubic without constant term), errors from the spread over runs or
-// a jackknife over blocks of one run. Writes analysis.json and, through
-// scripts/plot_analysis.py, the paper's figures as PNG.
+// (the accumulated Fourier order tensor), fitted by kernels/frank_fit (planar, cubic and
+// background estimators over ranges of k fixed in D^-2, errors from bin variances measured
+// between runs). Writes analysis.json and, through scripts/plot_analysis.py, the paper's
+// figures as PNG.
 #pragma once
 
 #include <nlohmann/json.hpp>
+
+#include "kernels/frank_fit.hpp"
 #include <string>
 #include <vector>
 
@@ -15,7 +17,7 @@ namespace hardrod {
 struct AnalyzeOptions {
   std::vector<std::string> run_dirs;
   std::string output_dir;           // default: the first run directory
-  bool subtract_self_term = false;  // see FrankFitOptions
+  FrankFitOptions frank;             // ranges, self-term subtraction (kT is taken as 1)
   bool plots = true;
 };
 

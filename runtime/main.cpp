@@ -131,8 +131,20 @@ int main(int argc, char **argv) {
   analyze->add_option("dirs", analyze_options.run_dirs, "run directories")->required();
   analyze->add_option("--out", analyze_options.output_dir,
                       "where analysis.json and the plots go (default: the first run directory)");
-  analyze->add_flag("--subtract-self-term", analyze_options.subtract_self_term,
+  analyze->add_flag("--subtract-self-term", analyze_options.frank.subtract_self_term,
                     "remove the uncorrelated-rod background from <|Q_m3|^2> before fitting");
+  analyze
+      ->add_option("--planar-max-k2", analyze_options.frank.planar_max_k2,
+                   "planar and background fits: bins with k1^2, k3^2 below this, D^-2 (default 0.1)")
+      ->check(CLI::PositiveNumber);
+  analyze
+      ->add_option("--cubic-max-k1sq", analyze_options.frank.cubic_max_k1sq,
+                   "cubic fit: bins with k1^2 up to this, D^-2 (default 2)")
+      ->check(CLI::PositiveNumber);
+  analyze
+      ->add_option("--cubic-max-k3sq", analyze_options.frank.cubic_max_k3sq,
+                   "cubic fit: bins with k3^2 up to this, D^-2 (default 1)")
+      ->check(CLI::PositiveNumber);
   bool no_plots = false;
   analyze->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
