@@ -5,8 +5,9 @@
 
 Reads DIR/analysis.json and each run's timeseries.csv and angular.json; writes
   DIR/order_parameter.png  S(t) from the lattice start (the paper's figure 2),
-  DIR/frank_cuts.png       E_13 and E_23 along k1^2 and k3^2 with the planar and cubic fits
-                           (the paper's figure 3),
+  DIR/frank_cuts.png       E_13 and E_23 along k1^2 and k3^2 with the planar, cubic and
+                           background fits (the paper's figure 3),
+  DIR/frank_surfaces.png   E_13 and E_23 over (k1^2, k3^2) with the cubic fit (figure 4),
   DIR/angular.png          distribution of axes around the director / isotropic (figure 1).
 """
 import argparse
@@ -45,6 +46,104 @@ def evaluate(terms, x, y):
     return sum(a * (x ** i) * (y ** j) for i, j, a in terms)
 
 
+def model_value(fit, name, x, y):
+    """E of a fit at (k1^2, k3^2): the polynomial P, or P / (1 + b P) for the background model."""
+    terms = fit.get("terms_" + name) or []
+    if not terms:
+        return None
+    P = evaluate(terms, x, y)
+    b = (fit.get("background_" + name) or {}).get("value")
+    return P / (1.0 + b * P) if b is not None else P
+
+
+def strip_means(bins, along, edges):
+    """Inverse-variance means of E over intervals of k_along^2 (bins with a usable error only)."""
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        pts = [b for b in bins if lo <= b[along] < hi]
+        if not pts:
+            continue
+        w = [1.0 / b[3] ** 2 for b in pts]
+        W = sum(w)
+        out.append((sum(wi * b[along] for wi, b in zip(w, pts)) / W,
+                    sum(wi * b[2] for wi, b in zip(w, pts)) / W, W ** -0.5))
+    return out
+
+
+def frank_cuts(plt, fr, path, max_k2, strip=0.03):
+    """E_13 and E_23 along k1^2 (k3^2 < strip) and along k3^2 (k1^2 < strip): every bin faint,
+    their inverse-variance means over intervals of k^2 with errors, and the three fits."""
+    fig, axes = plt.subplots(2, 2, figsize=(9, 7))
+    edges = [i * max_k2 / 24 for i in range(25)]
+    for row, name in enumerate(("E13", "E23")):
+        bins = [b for b in fr[name] if b[2] is not None and b[3] is not None and b[3] > 0 and b[2] > 0]
+        for col, (label, along) in enumerate(((r"$k_1^2$", 0), (r"$k_3^2$", 1))):
+            a = axes[row][col]
+            other = 1 - along
+            band = [b for b in bins if b[other] < strip and b[along] <= max_k2]
+            if not band:
+                continue
+            a.plot([b[along] for b in band], [b[2] for b in band], ".", color="0.75", ms=2, label="bins")
+            means = strip_means(band, along, edges)
+            a.errorbar([m[0] for m in means], [m[1] for m in means], yerr=[m[2] for m in means], fmt="o",
+                       ms=3, lw=0.8, color="k", label="simulation")
+            fixed = sum(b[other] for b in band) / len(band)
+            grid = [max_k2 * i / 60 for i in range(1, 61)]
+            for model, style in (("planar", ":"), ("cubic", "-"), ("background", "--")):
+                fit = fr.get(model) or {}
+                ys = [model_value(fit, name, g, fixed) if along == 0 else model_value(fit, name, fixed, g)
+                      for g in grid]
+                if all(y is not None for y in ys):
+                    r = fr["ranges"]  # each fit drawn over the range it was fitted on
+                    lim = 2 * r["planar_max_k2"] if model == "planar" else \
+                        r["cubic_max_k1sq"] if along == 0 else r["cubic_max_k3sq"]
+                    xs = [g for g in grid if g <= lim]
+                    a.plot(xs, ys[:len(xs)], style, lw=1, label=f"{model} fit")
+            top = max(m[1] + m[2] for m in means) if means else 1.0
+            a.set_ylim(0.0, 1.3 * top)
+            a.set_xlabel(label)
+            a.set_ylabel(r"$E_{%s}$" % name[1:])
+            a.legend(fontsize=7)
+    fig.suptitle("E_m3 = (9/4) S^2 V kT / <|Q_m3(k)|^2>: cuts along each axis (other k^2 < %g)" % strip)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def frank_surfaces(plt, fr, path):
+    """E_13 and E_23 over (k1^2, k3^2) in the cubic fit's range: the bins as points, the cubic
+    fit as a wire surface (the paper's figure 4)."""
+    r = fr["ranges"]
+    xmax, ymax = r["cubic_max_k1sq"], r["cubic_max_k3sq"]
+    fig = plt.figure(figsize=(10, 4.5))
+    for col, name in enumerate(("E13", "E23")):
+        a = fig.add_subplot(1, 2, col + 1, projection="3d")
+        bins = [b for b in fr[name] if b[2] is not None and b[0] <= xmax and b[1] <= ymax]
+        if not bins:
+            continue
+        zs = sorted(b[2] for b in bins)
+        ztop = 1.3 * zs[int(0.98 * (len(zs) - 1))]  # the few noisiest bins would flatten the rest
+        bins = [b for b in bins if b[2] <= ztop]
+        a.scatter([b[0] for b in bins], [b[1] for b in bins], [b[2] for b in bins], s=2, c="k", alpha=0.4)
+        fit = fr.get("cubic") or {}
+        if fit.get("terms_" + name):
+            nx = 16
+            X = [[xmax * i / nx for i in range(nx + 1)] for _ in range(nx + 1)]
+            Y = [[ymax * j / nx] * (nx + 1) for j in range(nx + 1)]
+            Z = [[model_value(fit, name, x, y) for x, y in zip(xr, yr)] for xr, yr in zip(X, Y)]
+            import numpy as np
+            a.plot_wireframe(np.array(X), np.array(Y), np.array(Z), color="C1", lw=0.6)
+        a.set_xlabel(r"$k_1^2$")
+        a.set_ylabel(r"$k_3^2$")
+        a.set_zlabel(r"$E_{%s}$" % name[1:])
+        a.set_zlim(0.0, ztop)
+        a.view_init(elev=20, azim=-130)
+    fig.suptitle("E_m3 over the cubic fit's range: bins (points) and the cubic fit (wire)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", required=True)
@@ -77,42 +176,9 @@ def main():
     made.append("order_parameter.png")
 
     if "frank" in analysis:
-        fr = analysis["frank"]
-        fig, axes = plt.subplots(2, 2, figsize=(9, 7))
-        for row, name in enumerate(("E13", "E23")):
-            bins = [b for b in fr[name] if b[2] is not None]
-            if not bins:
-                continue
-            k1 = sorted({round(b[0], 6) for b in bins})
-            k3 = sorted({round(b[1], 6) for b in bins})
-            key = "terms_" + name
-            for col, (label, along) in enumerate(((r"$k_1^2$", 0), (r"$k_3^2$", 1))):
-                a = axes[row][col]
-                other = 1 - along
-                # The cut: bins in the lowest occupied band of the other variable.
-                lowest = min(b[other] for b in bins)
-                band = [b for b in bins if b[other] <= lowest + 0.011 and b[along] <= args.max_k2]
-                band.sort(key=lambda b: b[along])
-                xs = [b[along] for b in band]
-                a.errorbar(xs, [b[2] for b in band], yerr=[b[3] or 0 for b in band], fmt="o", ms=3,
-                           lw=0.8, label="simulation")
-                if xs:
-                    fixed = sum(b[other] for b in band) / len(band)
-                    grid = [min(xs) * (1 - f) + max(xs) * f for f in [i / 50 for i in range(51)]]
-                    for model, style in (("planar", "--"), ("cubic", "-")):
-                        terms = fr[model].get(key) or []
-                        if terms:
-                            ys = [evaluate(terms, g, fixed) if along == 0 else evaluate(terms, fixed, g)
-                                  for g in grid]
-                            a.plot(grid, ys, style, lw=1, label=f"{model} fit")
-                a.set_xlabel(label)
-                a.set_ylabel(r"$E_{%s}$" % name[1:])
-                a.legend(fontsize=7)
-        fig.suptitle("E_m3 = (9/4) S^2 V kT / <|Q_m3(k)|^2>: cuts along each axis")
-        fig.tight_layout()
-        fig.savefig(out / "frank_cuts.png", dpi=120)
-        plt.close(fig)
-        made.append("frank_cuts.png")
+        frank_cuts(plt, analysis["frank"], out / "frank_cuts.png", args.max_k2)
+        frank_surfaces(plt, analysis["frank"], out / "frank_surfaces.png")
+        made += ["frank_cuts.png", "frank_surfaces.png"]
 
     curves = []
     for run in args.runs:

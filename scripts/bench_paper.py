@@ -1,0 +1,193 @@
+"""`scripts/bench paper`: the paper's Table 1 protocol as one resumable command.
+
+Runs: for each system size (N = 18432, the paper's 8 x 48 x 48 lattice; N = 2304, the everyday
+4 x 24 x 24 lattice) and each velocity seed, one `hardrod run` from the aligned lattice with
+`run.equilibration_steps` for the equilibration and `run.steps` of production, S and P* sampled
+every 0.02 tau from t = 0, the Fourier order tensor every 0.02 tau in production, checkpoints
+every 10 tau. Two runs at a time (one thread each) on two cores. Rerunning the command skips
+finished runs and resumes interrupted ones from their checkpoints.
+
+Analysis: `hardrod analyze` over the seeds of each size (S, P*, Frank constants with their
+errors and chi^2 per fit), the equilibration judged from S (see `equilibration_verdict`), then
+table1.md / table1.json beside the paper's and the literature rows, and the figures.
+"""
+
+import json
+import math
+import os
+import shlex
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+HARDROD = ROOT / "build" / "hardrod"
+
+# The two systems of the paper's finite-size study that fit on a workstation. kmax reaches the
+# cubic fit's range (k1^2 <= 2, k3^2 <= 1 D^-2) in each box; production is longer in the small
+# box, which has 8x fewer modes per bin and costs 8x less per tau.
+SIZES = {
+    18432: {"scene": "scenes/paper.toml", "kmax": 10, "prod_tau": 60.0},
+    2304: {"scene": "scenes/everyday.toml", "kmax": 6, "prod_tau": 240.0},
+}
+CHECKPOINT_TAU = 10.0
+SAMPLE_TAU = 0.02
+
+
+@dataclass
+class PaperRun:
+    n: int
+    seed: int
+    out: Path
+    dt: float
+    equil_tau: float
+    prod_tau: float
+    kmax: int
+    scene: str
+
+    @property
+    def name(self):
+        return f"n{self.n}/seed{self.seed}"
+
+    def steps(self, tau):
+        return int(round(tau / self.dt))
+
+    def sets(self):
+        every = self.steps(SAMPLE_TAU)
+        return {"init.seed": self.seed, "run.dt": f"{self.dt:g}",
+                "run.equilibration_steps": self.steps(self.equil_tau),
+                "run.steps": self.steps(self.prod_tau), "run.sample_interval": every,
+                "observables.frank": "true", "observables.fourier_kmax": self.kmax,
+                "observables.fourier_interval": every,
+                "output.checkpoint_interval": self.steps(CHECKPOINT_TAU)}
+
+    def run_argv(self):
+        argv = [str(HARDROD.relative_to(ROOT)), "run", self.scene]
+        for k, v in self.sets().items():
+            argv += ["--set", f"{k}={v}"]
+        return argv + ["--out", str(self.out), "--force", "--threads", "1", "--no-bind", "--quiet"]
+
+    def resume_argv(self):
+        return [str(HARDROD.relative_to(ROOT)), "resume", str(self.out), "--threads", "1", "--no-bind",
+                "--quiet"]
+
+    def state(self):
+        """'done', 'resume' (a checkpoint of these settings exists) or 'start'."""
+        summary = load_json(self.out / "summary.json")
+        if summary and summary.get("status") == "completed" and self.same_settings():
+            return "done"
+        if (self.out / "checkpoint.h5").exists() and self.same_settings():
+            return "resume"
+        return "start"
+
+    def same_settings(self):
+        try:
+            first = (self.out.parent / f"seed{self.seed}.log").read_text(errors="replace").splitlines()[0]
+        except (OSError, IndexError):
+            return False
+        return first == "$ " + shlex.join(self.run_argv())
+
+    def cost(self):
+        return self.n * (self.equil_tau + self.prod_tau)
+
+
+def load_json(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+
+def plan(args):
+    runs = []
+    for n in args.sizes:
+        spec = SIZES[n]
+        prod = args.prod_tau if args.prod_tau else spec["prod_tau"]
+        for seed in range(1, args.seeds + 1):
+            runs.append(PaperRun(n, seed, Path(args.out).resolve() / f"n{n}" / f"seed{seed}", args.dt, args.equil_tau,
+                                 prod, spec["kmax"], spec["scene"]))
+    return runs
+
+
+def execute(run):
+    """One run to completion: start it, or resume it from its checkpoint. The log's first line is
+    the `hardrod run` command (how a later invocation recognises the settings)."""
+    log = run.out.parent / f"seed{run.seed}.log"
+    state = run.state()
+    if state == "done":
+        return run, 0, 0.0
+    run.out.parent.mkdir(parents=True, exist_ok=True)
+    start = time.monotonic()
+    if state == "start":
+        with open(log, "w") as f:
+            f.write("$ " + shlex.join(run.run_argv()) + "\n")
+        argv = run.run_argv()
+    else:
+        with open(log, "a") as f:
+            f.write("$ " + shlex.join(run.resume_argv()) + "\n")
+        argv = run.resume_argv()
+    with open(log, "a") as f:
+        rc = subprocess.run(argv, cwd=ROOT, stdout=f, stderr=subprocess.STDOUT).returncode
+    return run, rc, time.monotonic() - start
+
+
+def run_phase(args, runs):
+    todo = [r for r in runs if r.state() != "done"]
+    print(f"bench paper: {len(runs)} runs, {len(runs) - len(todo)} finished, {len(todo)} to do, "
+          f"{args.jobs} at a time", flush=True)
+    failed = []
+    t0 = time.monotonic()
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        futures = [pool.submit(execute, r) for r in sorted(todo, key=lambda r: -r.cost())]
+        for i, fut in enumerate(as_completed(futures), 1):
+            run, rc, wall = fut.result()
+            status = "ok" if rc == 0 else f"exit {rc} (see {run.out.parent / f'seed{run.seed}.log'})"
+            print(f"  [{i}/{len(todo)}] {run.name:<16} {status:<12} {wall:7.0f} s "
+                  f"(elapsed {time.monotonic() - t0:.0f} s)", flush=True)
+            if rc != 0:
+                failed.append(run)
+    return failed
+
+
+def add_arguments(sp):
+    sp.add_argument("--dry-run", action="store_true", help="print one hardrod command per run, run nothing")
+    sp.add_argument("--out", default=str(ROOT / "results" / "paper"),
+                    help="where the runs, table1.md/json and figures go (default results/paper; rerun to continue)")
+    sp.add_argument("--sizes", default="18432,2304", help="comma list of N among 18432, 2304 (default both)")
+    sp.add_argument("--seeds", type=int, default=6, help="velocity seeds per size (default 6)")
+    sp.add_argument("--dt", type=float, default=1e-4,
+                    help="time step (default 1e-4, the trade-off harness's choice: P* -0.22 %% against dt -> 0)")
+    sp.add_argument("--equil-tau", type=float, default=150.0, help="equilibration, tau (default 150)")
+    sp.add_argument("--prod-tau", type=float, default=0.0,
+                    help="production, tau (default 60 at N = 18432, 240 at N = 2304)")
+    sp.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at a time (default: cores)")
+    sp.add_argument("--analyze-only", action="store_true", help="do not run; analyse the finished runs")
+
+
+def main(args):
+    args.sizes = [int(s) for s in str(args.sizes).split(",") if s.strip()]
+    bad = [n for n in args.sizes if n not in SIZES]
+    if bad:
+        print(f"bench paper: --sizes: {bad} not among {sorted(SIZES)}", file=sys.stderr)
+        return 2
+    runs = plan(args)
+    if args.dry_run:
+        print(f"(dry run) {len(runs)} runs, {args.jobs} at a time; a finished run is skipped, an interrupted one "
+              f"continues with `hardrod resume DIR --threads 1 --no-bind --quiet`:")
+        for r in runs:
+            print(("# done: " if r.state() == "done" else "") + shlex.join(r.run_argv()))
+        return 0
+    if not HARDROD.exists():
+        print("bench paper: build/hardrod missing: run scripts/build first", file=sys.stderr)
+        return 2
+    if not args.analyze_only:
+        failed = run_phase(args, runs)
+        if failed:
+            print(f"bench paper: {len(failed)} runs failed; rerun the command to retry them", file=sys.stderr)
+            return 1
+    import bench_paper_report
+    return bench_paper_report.report(args, runs)

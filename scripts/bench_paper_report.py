@@ -1,0 +1,218 @@
+"""The report of `scripts/bench paper`: table1.md, table1.json and the figures.
+
+For each system size: `hardrod analyze` over the finished seeds (OUT/nN/analysis.json, its
+figures and its printed table in OUT/nN/analyze.log), the equilibration judged from each run's
+S(t) (`equilibration_verdict`), then one table beside the paper's Table 1 and the literature.
+"""
+
+import csv
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+from series import conservative_block_error, drift_check, mser_cut
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# The paper's Table 1 (N = 18432, rho* = 0.5, L/D = 5) and the rows it compares with; K in
+# units of kT / D. Allen & Frenkel's K are rescaled by 9/4 as in the paper.
+PAPER = {"P": (6.015, 0.020), "S": (0.727, 0.002),
+         "planar": {"K1": (0.763, 0.045), "K2": (0.348, 0.024), "K3": (1.226, 0.045)},
+         "cubic": {"K1": (0.812, 0.019), "K2": (0.352, 0.016), "K3": (1.583, 0.027)}}
+LITERATURE = [
+    ("Frenkel (MC)", "5.942", "", "", "", ""),
+    ("Bolhuis & Frenkel (MC)", "5.995 +/- 0.059", "", "", "", ""),
+    ("McGrother et al. (MC, rho* 0.497)", "5.94", "0.728 +/- 0.017", "", "", ""),
+    ("McGrother et al. (MC, rho* 0.507)", "6.20", "0.754 +/- 0.020", "", "", ""),
+    ("Allen & Frenkel (MC, x 9/4)", "", "0.73", "0.83 +/- 0.25", "0.59 +/- 0.07", "1.10 +/- 0.11"),
+    ("Poniewierski & Stecki (DFT)", "", "0.728", "0.513", "0.239", "1.526"),
+    ("Somoza & Tarazona (DFT)", "", "0.791", "0.630", "0.297", "2.403"),
+    ("Lee (DFT, rho* 0.482)", "", "0.729", "1.322", "0.441", "6.447"),
+]
+FITS = ("cubic", "planar", "background")
+CONSTANTS = ("K1", "K2", "K3", "K3_from_E13", "K3_from_E23")
+
+
+def series(run_dir):
+    """(time, phase, S) of a run's timeseries.csv, sampled from t = 0."""
+    t, phase, S = [], [], []
+    with open(Path(run_dir) / "timeseries.csv") as f:
+        for r in csv.DictReader(f):
+            t.append(float(r["time"]))
+            phase.append(r["phase"])
+            S.append(float(r["order_parameter"]))
+    return t, phase, S
+
+
+def run_equilibration(run_dir):
+    """One run's S(t) from the lattice start: the MSER-5 cut (White 1997, at most half the
+    series) and the production's drift, mean S of the last third minus the first third."""
+    t, phase, S = series(run_dir)
+    cut = mser_cut(S)
+    t_cut = t[cut] if cut < len(t) else float("nan")
+    t_prod = next((ti for ti, p in zip(t, phase) if p == "production"), float("nan"))
+    prod = [s for s, p in zip(S, phase) if p == "production"]
+    return {"run": str(run_dir), "mser_cut_tau": t_cut, "production_starts_tau": t_prod,
+            "cut_inside_equilibration": bool(t_cut < t_prod), "drift": drift_check(prod)}
+
+
+def equilibration_verdict(runs):
+    """Equilibrated when every run's MSER-5 cut falls inside its equilibration and the
+    production drift, averaged over the seeds, is zero within 3 errors. The error is the seeds'
+    spread: a run's own block error cannot see director modes slower than a third of the
+    production (tens of tau at N = 18432), and a relaxation still under way would drift every
+    seed the same way. With fewer than three seeds, each run's block error is used instead."""
+    drifts = [r["drift"] for r in runs if r["drift"]]
+    cuts_ok = all(r["cut_inside_equilibration"] for r in runs)
+    if len(drifts) >= 3:
+        d = [x["drift"] for x in drifts]
+        mean = sum(d) / len(d)
+        error = math.sqrt(sum((x - mean) ** 2 for x in d) / (len(d) - 1) / len(d))
+        how = f"mean over {len(d)} seeds, error from their spread"
+    elif drifts:
+        mean = sum(x["drift"] for x in drifts) / len(drifts)
+        error = math.sqrt(sum(x["drift_error"] ** 2 for x in drifts)) / len(drifts)
+        how = "block errors of the runs"
+    else:
+        return {"equilibrated": False, "why": "production too short for a drift check", "runs": runs}
+    ok = cuts_ok and abs(mean) <= 3.0 * error
+    return {"equilibrated": bool(ok), "drift": mean, "drift_error": error, "drift_error_from": how,
+            "cuts_inside_equilibration": cuts_ok, "runs": runs}
+
+
+def analyze(hardrod, dirs, out):
+    out.mkdir(parents=True, exist_ok=True)
+    argv = [str(hardrod), "analyze", *map(str, dirs), "--out", str(out)]
+    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
+    (out / "analyze.log").write_text("$ " + " ".join(argv) + "\n" + proc.stdout + proc.stderr)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(argv)} failed (exit {proc.returncode}); see {out / 'analyze.log'}")
+    return json.loads((out / "analysis.json").read_text())
+
+
+def pm(e, digits=3):
+    if not e or e.get("mean") is None:
+        return "not determined"
+    if e.get("error") is None:
+        return f"{e['mean']:.{digits}f}"
+    return f"{e['mean']:.{digits}f} +/- {e['error']:.{digits}f}"
+
+
+def size_row(n, a, verdict):
+    row = {"N": n, "runs": a["runs"], "fourier_samples": a.get("fourier_samples"),
+           "P": a["pressure_star"], "S": a["order_parameter"],
+           "equilibrated": verdict["equilibrated"], "equilibration": verdict}
+    for fit in FITS:
+        row[fit] = {k: a[k][fit] for k in CONSTANTS if k in a}
+    return row
+
+
+def markdown(rows, args):
+    lines = ["# The paper's Table 1 reproduced (`scripts/bench paper`)", "",
+             f"rho* = 0.5, L/D = 5, dt = {args.dt:g}, {args.equil_tau:g} tau equilibration from the aligned "
+             "lattice; K* = beta D K. Errors: S and P* over the seeds (block errors per run, combined); "
+             "K from the fit with bin variances from the spread over seeds, inflated by sqrt(chi2/dof) "
+             "when above 1.", "",
+             "| source | fit | P* | S | K1 | K2 | K3 | K3 (E13) | K3 (E23) | chi2/dof |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        who = f"hardrod N = {r['N']} ({r['runs']} seeds)"
+        for i, fit in enumerate(FITS):
+            f = r[fit]
+            lines.append(f"| {who if i == 0 else ''} | {fit} | {pm(r['P']) if i == 0 else ''} | "
+                         f"{pm(r['S'], 4) if i == 0 else ''} | {pm(f.get('K1'))} | {pm(f.get('K2'))} | "
+                         f"{pm(f.get('K3'))} | {pm(f.get('K3_from_E13'))} | {pm(f.get('K3_from_E23'))} | "
+                         f"{chi2(f.get('K3'))} |")
+    for i, fit in enumerate(("cubic", "planar")):
+        k = PAPER[fit]
+        lines.append(f"| {'paper, N = 18432' if i == 0 else ''} | {fit} | "
+                     f"{'%.3f +/- %.3f' % PAPER['P'] if i == 0 else ''} | {'%.3f +/- %.3f' % PAPER['S'] if i == 0 else ''} | "
+                     + " | ".join("%.3f +/- %.3f" % k[c] for c in ("K1", "K2", "K3")) + " | | | |")
+    for name, P, S, K1, K2, K3 in LITERATURE:
+        lines.append(f"| {name} | | {P} | {S} | {K1} | {K2} | {K3} | | | |")
+    lines += ["", "Equilibration, judged from S(t) sampled from t = 0: every run's MSER-5 cut inside its "
+              "equilibration, and the production drift (mean S of the last third - the first third), "
+              "averaged over the seeds, zero within 3 errors (error from the seeds' spread):", ""]
+    for r in rows:
+        e = r["equilibration"]
+        if "drift" in e:
+            lines.append(f"- N = {r['N']}: drift {e['drift']:+.4f} +/- {e['drift_error']:.4f} ({e['drift_error_from']}), "
+                         f"cuts inside the equilibration: {'yes' if e['cuts_inside_equilibration'] else 'NO'}: "
+                         + ("equilibrated" if e["equilibrated"] else "NOT EQUILIBRATED"))
+        else:
+            lines.append(f"- N = {r['N']}: NOT JUDGED ({e['why']})")
+        for v in e["runs"]:
+            d = v["drift"] or {}
+            lines.append(f"  - {Path(v['run']).name}: MSER-5 cut at {v['mser_cut_tau']:.1f} tau, drift "
+                         f"{d.get('drift', float('nan')):+.4f} (block error {d.get('drift_error', float('nan')):.4f})")
+    return "\n".join(lines) + "\n"
+
+
+def chi2(e):
+    return f"{e['chi2_dof']:.2f}" if e and e.get("chi2_dof") is not None else "-"
+
+
+def plot_order_parameter(rows, out):
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    for r in rows:
+        runs = r["equilibration"]["runs"]
+        for v in runs:
+            t, _, S = series(v["run"])
+            ax.plot(t, S, lw=0.5, label=f"N = {r['N']}" if v is runs[0] else None,
+                    color="C0" if r["N"] == 18432 else "C1")
+        ax.axvline(runs[0]["production_starts_tau"], color="grey", lw=0.8, ls="--")
+    ax.axhspan(PAPER["S"][0] - PAPER["S"][1], PAPER["S"][0] + PAPER["S"][1], color="k", alpha=0.15,
+               label="paper, N = 18432")
+    ax.set_xlabel("t / tau")
+    ax.set_ylabel("S")
+    ax.set_ylim(0.6, 1.0)
+    ax.legend()
+    path = out / "order_parameter.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def difference(a, b):
+    if a.get("mean") is None or b.get("mean") is None:
+        return None
+    return {"mean": a["mean"] - b["mean"], "error": math.hypot(a.get("error") or 0.0, b.get("error") or 0.0)}
+
+
+def report(args, runs):
+    out = Path(args.out)
+    rows = []
+    for n in args.sizes:
+        done = [r.out for r in runs if r.n == n and r.state() == "done"]
+        if not done:
+            print(f"bench paper: no finished run at N = {n}", file=sys.stderr)
+            continue
+        a = analyze(ROOT / "build" / "hardrod", done, out / f"n{n}")
+        rows.append(size_row(n, a, equilibration_verdict([run_equilibration(d) for d in done])))
+    if not rows:
+        return 1
+    result = {"dt": args.dt, "equilibration_tau": args.equil_tau, "sizes": rows, "paper": PAPER}
+    by_n = {r["N"]: r for r in rows}
+    if 2304 in by_n and 18432 in by_n:
+        result["S_2304_minus_S_18432"] = difference(by_n[2304]["S"], by_n[18432]["S"])
+    (out / "table1.json").write_text(json.dumps(result, indent=2) + "\n")
+    text = markdown(rows, args)
+    if "S_2304_minus_S_18432" in result and result["S_2304_minus_S_18432"]:
+        d = result["S_2304_minus_S_18432"]
+        text += f"\nFinite size: S(2304) - S(18432) = {d['mean']:+.4f} +/- {d['error']:.4f}\n"
+    (out / "table1.md").write_text(text)
+    figure = plot_order_parameter(rows, out)
+    print(text)
+    print(f"written: {out / 'table1.md'}, {out / 'table1.json'}" + (f", {figure}" if figure else "")
+          + "; per size: analysis.json, analyze.log and the fit figures in " + ", ".join(
+              str(out / f"n{r['N']}") for r in rows))
+    return 0 if all(r["equilibrated"] for r in rows) else 1
