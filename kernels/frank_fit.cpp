@@ -338,10 +338,26 @@ AllFits fit_all(const FrankBlock &data, double volume, const FrankFitOptions &o,
   return fits;
 }
 
-double spread_error(const std::vector<double> &r) {  // sd / sqrt(n) of independent replicas
-  std::vector<double> ok;
+// sd / sqrt(n) of independent replicas' estimates, without those more than five robust
+// standard deviations (1.4826 median absolute deviations) from the median: one replica's fit
+// that ran away should not decide the spread of the others.
+double spread_error(const std::vector<double> &r) {
+  std::vector<double> finite;
   for (double x : r)
-    if (std::isfinite(x)) ok.push_back(x);
+    if (std::isfinite(x)) finite.push_back(x);
+  if (finite.size() < 2) return kNaN;
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const size_t h = v.size() / 2;
+    return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
+  };
+  const double mid = median(finite);
+  std::vector<double> dev;
+  for (double x : finite) dev.push_back(std::fabs(x - mid));
+  const double mad = median(dev);
+  std::vector<double> ok;
+  for (double x : finite)
+    if (finite.size() < 3 || !(mad > 0.0) || std::fabs(x - mid) <= 5.0 * 1.4826 * mad) ok.push_back(x);
   if (ok.size() < 2) return kNaN;
   double mean = 0.0, ss = 0.0;
   for (double x : ok) mean += x;
@@ -390,8 +406,14 @@ FrankModelFit assemble(const AllFits &central, const std::vector<AllFits> &repli
                       : kNaN);
     f.K3.spread = spread_error(r);
   }
-  for (FrankEstimate *e : {&f.K1, &f.K2, &f.K3, &f.K3_13, &f.K3_23})
-    if (!physical(*e)) *e = FrankEstimate{};  // never a negative K or a zero error
+  for (FrankEstimate *e : {&f.K1, &f.K2, &f.K3, &f.K3_13, &f.K3_23}) {
+    if (!physical(*e)) {
+      *e = FrankEstimate{};  // never a negative K or a zero error
+      continue;
+    }
+    e->fit_error = e->error;
+    if (replicas.size() >= 3 && std::isfinite(e->spread)) e->error = std::max(e->error, e->spread);
+  }
   return f;
 }
 
@@ -459,7 +481,10 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
 nlohmann::json to_json(const FrankResult &r) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   auto est = [&](const FrankEstimate &e) {
-    return nlohmann::json{{"value", num(e.value)}, {"error", num(e.error)}, {"spread", num(e.spread)}};
+    return nlohmann::json{{"value", num(e.value)},
+                          {"error", num(e.error)},
+                          {"fit_error", num(e.fit_error)},
+                          {"spread", num(e.spread)}};
   };
   auto model = [&](const FrankModelFit &f) {
     return nlohmann::json{{"K1", est(f.K1)},

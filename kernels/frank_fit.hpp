@@ -55,8 +55,11 @@ struct FrankFitOptions {
 
 struct FrankEstimate {
   double value = std::numeric_limits<double>::quiet_NaN();
-  double error = std::numeric_limits<double>::quiet_NaN();   // from the fit (see header)
-  double spread = std::numeric_limits<double>::quiet_NaN();  // from the replicas' fits
+  // The error quoted: fit_error, or the replicas' spread where that is larger (three or more
+  // replicas): the conservative one of two honest estimates, as for S and P*.
+  double error = std::numeric_limits<double>::quiet_NaN();
+  double spread = std::numeric_limits<double>::quiet_NaN();     // standard error from the replicas' fits
+  double fit_error = std::numeric_limits<double>::quiet_NaN();  // from the fit (see header)
 };
 
 // One model (planar, cubic or background) fitted to E_13 and to E_23.

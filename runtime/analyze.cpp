@@ -58,8 +58,8 @@ nlohmann::json merge_estimates(const std::vector<nlohmann::json> &summaries, con
 // fit could not determine (too few bins, not positive) is null, never NaN or negative.
 nlohmann::json estimate(const FrankEstimate &e, double chi2_dof, int bins) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-  return {{"mean", num(e.value)}, {"error", num(e.error)}, {"spread", num(e.spread)},
-          {"chi2_dof", num(chi2_dof)}, {"bins", bins}};
+  return {{"mean", num(e.value)}, {"error", num(e.error)},         {"fit_error", num(e.fit_error)},
+          {"spread", num(e.spread)}, {"chi2_dof", num(chi2_dof)}, {"bins", bins}};
 }
 
 // analysis.json's K1, K2, K3, K3_from_E13, K3_from_E23: {planar, cubic, background} each.
@@ -97,7 +97,8 @@ void print_frank(const nlohmann::json &out, const FrankFitOptions &o) {
   }
   fmt::print("  {:<9}{:>22}{:>22}{:>22}\n", "chi2/dof", chi2_text(out["K3"]["planar"]),
              chi2_text(out["K3"]["cubic"]), chi2_text(out["K3"]["background"]));
-  fmt::print("  * the recommended fit (docs/frank.md); errors inflated by sqrt(chi2/dof) where above 1\n");
+  fmt::print("  * the recommended fit (docs/frank.md). Errors: the fit's, inflated by sqrt(chi2/dof) where\n"
+             "    above 1, or the spread of the runs' own fits where larger (three runs or more)\n");
 }
 
 }  // namespace
