@@ -23,7 +23,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double mean_of(const FrankBin &bin, int m) { return (m == 1 ? bin.q13 : bin.q23) / double(bin.count); }
+double mean_of(const FrankBin &bin, int m) {
+  return (m == 1 ? bin.q13 : bin.q23) / double(bin.count);
+}
 double self_of(const FrankBin &bin, int m) {
   return (m == 1 ? bin.self13 : bin.self23) / double(bin.count);
 }
@@ -61,7 +63,8 @@ FrankVarianceModel variance_model(const FrankBlock &total, const std::vector<Fra
       ss += double(it->second.count) * d * d;
       used += 1.0;
     }
-    if (used >= 2.0 && ybar > 0.0) data.push_back({ybar / c, ss / ((used - 1.0) * ybar * ybar), used - 1.0});
+    if (used >= 2.0 && ybar > 0.0)
+      data.push_back({ybar / c, ss / ((used - 1.0) * ybar * ybar), used - 1.0});
   }
   FrankVarianceModel model;
   model.bins = static_cast<int>(data.size());
@@ -133,8 +136,15 @@ std::vector<Point> e_points(const FrankBlock &data, int m, double c, const Frank
     const double self = o.subtract_self_term ? self_of(bin, m) : 0.0;
     if (!(mean - self > 0.0) || !std::isfinite(mean)) continue;
     const double x = bin.k1sq / n, y = bin.k3sq / n;
-    Point p{x, y, std::max(0.0, bin.k1sq_sq / n - x * x), bin.k1sq_k3sq / n - x * y,
-            std::max(0.0, bin.k3sq_sq / n - y * y), c / (mean - self), n, mean / c, self / c};
+    Point p{x,
+            y,
+            std::max(0.0, bin.k1sq_sq / n - x * x),
+            bin.k1sq_k3sq / n - x * y,
+            std::max(0.0, bin.k3sq_sq / n - y * y),
+            c / (mean - self),
+            n,
+            mean / c,
+            self / c};
     // E[1/mean] = (1/mu)(1 + rel^2 + ...). A bin with rel > 1/2 (fewer than four effective
     // samples) has a skewed, heavy-tailed ratio that no second-order correction repairs: left out.
     const double rel = p.rel(v, p.E);
@@ -313,8 +323,9 @@ ModelValues fit_model(const std::vector<Point> &all, Model model, const FrankFit
   out.K3 = estimate(1, ys);
   if (with_b) out.b = estimate(np - 1, 1.0);
   for (size_t t = 0; t < mono.size(); ++t)
-    out.terms.push_back({double(mono[t][0]), double(mono[t][1]),
-                         p(Eigen::Index(t)) / (std::pow(xs, mono[t][0]) * std::pow(ys, mono[t][1]))});
+    out.terms.push_back(
+        {double(mono[t][0]), double(mono[t][1]),
+         p(Eigen::Index(t)) / (std::pow(xs, mono[t][0]) * std::pow(ys, mono[t][1]))});
   return out;
 }
 
@@ -357,7 +368,8 @@ double spread_error(const std::vector<double> &r) {
   const double mad = median(dev);
   std::vector<double> ok;
   for (double x : finite)
-    if (finite.size() < 3 || !(mad > 0.0) || std::fabs(x - mid) <= 5.0 * 1.4826 * mad) ok.push_back(x);
+    if (finite.size() < 3 || !(mad > 0.0) || std::fabs(x - mid) <= 5.0 * 1.4826 * mad)
+      ok.push_back(x);
   if (ok.size() < 2) return kNaN;
   double mean = 0.0, ss = 0.0;
   for (double x : ok) mean += x;
@@ -396,7 +408,8 @@ FrankModelFit assemble(const AllFits &central, const std::vector<AllFits> &repli
   if (physical(f.K3_13) != physical(f.K3_23)) {
     f.K3 = physical(f.K3_13) ? f.K3_13 : f.K3_23;
   } else if (physical(f.K3_13) && physical(f.K3_23)) {
-    const double w13 = 1.0 / (f.K3_13.error * f.K3_13.error), w23 = 1.0 / (f.K3_23.error * f.K3_23.error);
+    const double w13 = 1.0 / (f.K3_13.error * f.K3_13.error),
+                 w23 = 1.0 / (f.K3_23.error * f.K3_23.error);
     f.K3.value = (w13 * f.K3_13.value + w23 * f.K3_23.value) / (w13 + w23);
     f.K3.error = 1.0 / std::sqrt(w13 + w23);
     std::vector<double> r;
@@ -448,7 +461,8 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
   for (const FrankBinKey &key : keys) {
     const FrankBin &bin = total.bins.at(key);
     const Point p{bin.k1sq / double(bin.count), bin.k3sq / double(bin.count), 0, 0, 0, 0, 0, 0, 0};
-    if (range_of(Model::kCubic, options).contains(p) || range_of(Model::kPlanar, options).contains(p))
+    if (range_of(Model::kCubic, options).contains(p) ||
+        range_of(Model::kPlanar, options).contains(p))
       fitted.insert(key);
   }
   const std::vector<FrankBlock> replicas = replica_data(runs, options.replica_groups);
@@ -458,10 +472,12 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
     v[size_t(m - 1)] = replicas.size() >= 2 ? variance_model(total, replicas, m, c, fitted)
                                             : independent_samples_model(total, m, fitted);
   if (replicas.size() >= 2)
-    result.error_method = runs.size() >= 2 ? "bin variances from the spread over runs"
-                                           : "bin variances from the spread over stretches of the run";
+    result.error_method = runs.size() >= 2
+                              ? "bin variances from the spread over runs"
+                              : "bin variances from the spread over stretches of the run";
   else
-    result.error_method = "samples taken as independent (one run, too few blocks): errors too small";
+    result.error_method =
+        "samples taken as independent (one run, too few blocks): errors too small";
   result.variance_13 = v[0], result.variance_23 = v[1];
 
   const AllFits central = fit_all(total, volume, options, v, keys);

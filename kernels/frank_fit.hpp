@@ -35,9 +35,9 @@ namespace hardrod {
 
 struct FrankFitOptions {
   double kT = 1.0;
-  double planar_max_k2 = 0.1;    // planar fit: bin means k1^2, k3^2 below this
-  double cubic_max_k1sq = 2.0;   // cubic and background fits: bin mean k1^2 at most this (D^-2)
-  double cubic_max_k3sq = 1.0;   // and k3^2 at most this
+  double planar_max_k2 = 0.1;   // planar fit: bin means k1^2, k3^2 below this
+  double cubic_max_k1sq = 2.0;  // cubic and background fits: bin mean k1^2 at most this (D^-2)
+  double cubic_max_k3sq = 1.0;  // and k3^2 at most this
   // Bins with fewer k vectors are skipped: E ~ 1/<|Q|^2> of an exponential variable is
   // heavy-tailed for small counts.
   long long min_bin_count = 20;
@@ -58,7 +58,8 @@ struct FrankEstimate {
   // The error quoted: fit_error, or the replicas' spread where that is larger (three or more
   // replicas): the conservative one of two honest estimates, as for S and P*.
   double error = std::numeric_limits<double>::quiet_NaN();
-  double spread = std::numeric_limits<double>::quiet_NaN();     // standard error from the replicas' fits
+  double spread =
+      std::numeric_limits<double>::quiet_NaN();  // standard error from the replicas' fits
   double fit_error = std::numeric_limits<double>::quiet_NaN();  // from the fit (see header)
 };
 

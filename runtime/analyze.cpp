@@ -58,7 +58,7 @@ nlohmann::json merge_estimates(const std::vector<nlohmann::json> &summaries, con
 // fit could not determine (too few bins, not positive) is null, never NaN or negative.
 nlohmann::json estimate(const FrankEstimate &e, double chi2_dof, int bins) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-  return {{"mean", num(e.value)}, {"error", num(e.error)},         {"fit_error", num(e.fit_error)},
+  return {{"mean", num(e.value)},    {"error", num(e.error)},     {"fit_error", num(e.fit_error)},
           {"spread", num(e.spread)}, {"chi2_dof", num(chi2_dof)}, {"bins", bins}};
 }
 
@@ -87,18 +87,22 @@ std::string chi2_text(const nlohmann::json &e) {
 
 void print_frank(const nlohmann::json &out, const FrankFitOptions &o) {
   fmt::print("  Frank constants (K* = beta D K), {} Fourier samples; {}\n",
-             out["fourier_samples"].get<long long>(), out["frank"]["error_method"].get<std::string>());
+             out["fourier_samples"].get<long long>(),
+             out["frank"]["error_method"].get<std::string>());
   fmt::print("  {:<9}{:>22}{:>22}{:>22}\n", "", fmt::format("planar (k^2<{:g})", o.planar_max_k2),
              fmt::format("cubic ({:g}, {:g}) *", o.cubic_max_k1sq, o.cubic_max_k3sq), "background");
   for (const char *k : {"K1", "K2", "K3", "K3_from_E13", "K3_from_E23"}) {
-    const std::string label = std::string(k).size() > 2 ? "K3(E" + std::string(k).substr(9) + ")" : k;
+    const std::string label =
+        std::string(k).size() > 2 ? "K3(E" + std::string(k).substr(9) + ")" : k;
     fmt::print("  {:<9}{:>22}{:>22}{:>22}\n", label, pm(out[k]["planar"]), pm(out[k]["cubic"]),
                pm(out[k]["background"]));
   }
   fmt::print("  {:<9}{:>22}{:>22}{:>22}\n", "chi2/dof", chi2_text(out["K3"]["planar"]),
              chi2_text(out["K3"]["cubic"]), chi2_text(out["K3"]["background"]));
-  fmt::print("  * the recommended fit (docs/frank.md). Errors: the fit's, inflated by sqrt(chi2/dof) where\n"
-             "    above 1, or the spread of the runs' own fits where larger (three runs or more)\n");
+  fmt::print(
+      "  * the recommended fit (docs/frank.md). Errors: the fit's, inflated by sqrt(chi2/dof) "
+      "where\n"
+      "    above 1, or the spread of the runs' own fits where larger (three runs or more)\n");
 }
 
 }  // namespace
@@ -109,9 +113,9 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
     for (size_t b = 0; b < a; ++b) {
       std::error_code ea, eb;
       if (fs::equivalent(options.run_dirs[a], options.run_dirs[b], ea) && !ea && !eb)
-        throw std::runtime_error(fmt::format(
-            "analyze: {} and {} are the same run directory; each run may be given once",
-            options.run_dirs[b], options.run_dirs[a]));
+        throw std::runtime_error(
+            fmt::format("analyze: {} and {} are the same run directory; each run may be given once",
+                        options.run_dirs[b], options.run_dirs[a]));
     }
   std::vector<nlohmann::json> summaries;
   std::vector<FrankAccumulator> frank;

@@ -7,17 +7,17 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
-
-#include "kernels/frank_fit.hpp"
 #include <string>
 #include <vector>
+
+#include "kernels/frank_fit.hpp"
 
 namespace hardrod {
 
 struct AnalyzeOptions {
   std::vector<std::string> run_dirs;
-  std::string output_dir;           // default: the first run directory
-  FrankFitOptions frank;             // ranges, self-term subtraction (kT is taken as 1)
+  std::string output_dir;  // default: the first run directory
+  FrankFitOptions frank;   // ranges, self-term subtraction (kT is taken as 1)
   bool plots = true;
 };
 

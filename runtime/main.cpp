@@ -134,8 +134,9 @@ int main(int argc, char **argv) {
   analyze->add_flag("--subtract-self-term", analyze_options.frank.subtract_self_term,
                     "remove the uncorrelated-rod background from <|Q_m3|^2> before fitting");
   analyze
-      ->add_option("--planar-max-k2", analyze_options.frank.planar_max_k2,
-                   "planar and background fits: bins with k1^2, k3^2 below this, D^-2 (default 0.1)")
+      ->add_option(
+          "--planar-max-k2", analyze_options.frank.planar_max_k2,
+          "planar and background fits: bins with k1^2, k3^2 below this, D^-2 (default 0.1)")
       ->check(CLI::PositiveNumber);
   analyze
       ->add_option("--cubic-max-k1sq", analyze_options.frank.cubic_max_k1sq,

@@ -643,7 +643,8 @@ void read_output(Reader &in, Scene &scene) {
 int default_fourier_kmax(const Box &box) {
   const double longest = std::max({box.length.x, box.length.y, box.length.z});
   if (!std::isfinite(longest) || !(longest > 0.0)) return 10;
-  return static_cast<int>(std::clamp(1.0 + std::round(longest / (2.0 * std::numbers::pi)), 2.0, 64.0));
+  return static_cast<int>(
+      std::clamp(1.0 + std::round(longest / (2.0 * std::numbers::pi)), 2.0, 64.0));
 }
 
 // The Frank-constant sampling costs nothing unless asked for.

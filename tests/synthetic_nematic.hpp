@@ -148,15 +148,19 @@ class SyntheticSampler {
     const Vec3 e2 = cross(n0_, e1);
     const double E1 = s_.K1 * k1sq + s_.K3 * k3 * k3, E2 = s_.K2 * k1sq + s_.K3 * k3 * k3;
     const double volume = box_.volume();
-    const double s1 = std::sqrt(s_.kT / (volume * E1) / 2.0), s2 = std::sqrt(s_.kT / (volume * E2) / 2.0);
-    const double r1 = tau0 > 0.0 ? std::exp(-E1 / tau0) : 0.0, r2 = tau0 > 0.0 ? std::exp(-E2 / tau0) : 0.0;
+    const double s1 = std::sqrt(s_.kT / (volume * E1) / 2.0),
+                 s2 = std::sqrt(s_.kT / (volume * E2) / 2.0);
+    const double r1 = tau0 > 0.0 ? std::exp(-E1 / tau0) : 0.0,
+                 r2 = tau0 > 0.0 ? std::exp(-E2 / tau0) : 0.0;
     const double f1 = std::sqrt(1.0 - r1 * r1), f2 = std::sqrt(1.0 - r2 * r2);
     // Project the old amplitude on e1, e2 (a real, orthonormal pair).
     const auto &old = amp_[m];
     const std::complex<double> a0 = old[0] * e1.x + old[1] * e1.y + old[2] * e1.z;
     const std::complex<double> b0 = old[0] * e2.x + old[1] * e2.y + old[2] * e2.z;
-    const std::complex<double> alpha = r1 * a0 + f1 * std::complex<double>(s1 * rng_.normal(), s1 * rng_.normal());
-    const std::complex<double> beta = r2 * b0 + f2 * std::complex<double>(s2 * rng_.normal(), s2 * rng_.normal());
+    const std::complex<double> alpha =
+        r1 * a0 + f1 * std::complex<double>(s1 * rng_.normal(), s1 * rng_.normal());
+    const std::complex<double> beta =
+        r2 * b0 + f2 * std::complex<double>(s2 * rng_.normal(), s2 * rng_.normal());
     amp_[m] = {alpha * e1.x + beta * e2.x, alpha * e1.y + beta * e2.y, alpha * e1.z + beta * e2.z};
   }
 
@@ -284,8 +288,8 @@ class SyntheticSampler {
 // One OpenMP thread: the generator is serial, the kernel's 4 ms per call gains little from a
 // second thread, and spinning threads on a loaded machine would cost more than that (the
 // result does not depend on the thread count: FourierOrderTensor.BitIdentical...).
-inline void accumulate(const SyntheticNematic &s, int samples, std::uint64_t seed0, FrankAccumulator &acc,
-                FrankAccumulator *control = nullptr) {
+inline void accumulate(const SyntheticNematic &s, int samples, std::uint64_t seed0,
+                       FrankAccumulator &acc, FrankAccumulator *control = nullptr) {
   const int saved_threads = omp_get_max_threads();
   omp_set_num_threads(1);
   SyntheticSampler sampler(s);
@@ -332,10 +336,9 @@ inline void expect_recovered(const char *name, const FrankEstimate &e, double wa
       << name << " = " << e.value << " +- " << e.error;
 }
 
-
 // `runs` independent runs of `samples` consecutive (correlated, with tau0 > 0) samples each.
-inline std::vector<FrankAccumulator> correlated_runs(const SyntheticNematic &s, int runs, int samples,
-                                                     std::uint64_t seed0) {
+inline std::vector<FrankAccumulator> correlated_runs(const SyntheticNematic &s, int runs,
+                                                     int samples, std::uint64_t seed0) {
   const int saved_threads = omp_get_max_threads();
   omp_set_num_threads(1);
   const Box box{{s.side, s.side, s.side}};

@@ -37,12 +37,14 @@ Unbiased fits(const std::vector<FrankAccumulator> &runs) {
 }
 
 void expect_all_recovered(const char *box, const Unbiased &u, const SyntheticNematic &s) {
-  std::printf("%s: S = %.4f, %lld samples, %s (%d replicas)\n", box, std::sqrt(u.background.mean_S2),
-              u.background.samples, u.background.error_method.c_str(), u.background.replicas);
+  std::printf("%s: S = %.4f, %lld samples, %s (%d replicas)\n", box,
+              std::sqrt(u.background.mean_S2), u.background.samples,
+              u.background.error_method.c_str(), u.background.replicas);
   report("background (b fitted)", u.background.background);
-  std::printf("  %-34s b13 %.3f +- %.3f  b23 %.3f +- %.3f\n", "", u.background.background.background_13.value,
-              u.background.background.background_13.error, u.background.background.background_23.value,
-              u.background.background.background_23.error);
+  std::printf(
+      "  %-34s b13 %.3f +- %.3f  b23 %.3f +- %.3f\n", "",
+      u.background.background.background_13.value, u.background.background.background_13.error,
+      u.background.background.background_23.value, u.background.background.background_23.error);
   report("cubic, paper's", u.background.cubic);
   report("cubic, self term subtracted", u.subtracted.cubic);
   report("plane, self term subtracted", u.subtracted.planar);
@@ -76,9 +78,10 @@ TEST(FrankSynthetic, RecoversPrescribedConstantsInBothBoxesWithHonestErrors) {
   expect_all_recovered("N = 18432", l, large);
 
   // The two boxes agree within their combined errors (background estimator).
-  for (const auto &[name, a, b] : {std::tuple{"K1", s.background.background.K1, l.background.background.K1},
-                                   std::tuple{"K2", s.background.background.K2, l.background.background.K2},
-                                   std::tuple{"K3", s.background.background.K3, l.background.background.K3}})
+  for (const auto &[name, a, b] :
+       {std::tuple{"K1", s.background.background.K1, l.background.background.K1},
+        std::tuple{"K2", s.background.background.K2, l.background.background.K2},
+        std::tuple{"K3", s.background.background.K3, l.background.background.K3}})
     EXPECT_LT(std::fabs(a.value - b.value), 3.0 * std::hypot(a.error, b.error)) << name;
 
   // Honest errors: the slow modes make the bins' variances larger than independent samples
@@ -87,7 +90,8 @@ TEST(FrankSynthetic, RecoversPrescribedConstantsInBothBoxesWithHonestErrors) {
   // must-fail case: one merged run, no replicas) gives errors at least 1.5x too small.
   EXPECT_GT(s.background.variance_23.g1, 0.0);
   const FrankModelFit &f = s.subtracted.planar;
-  for (const auto &[name, e] : {std::pair{"K1", f.K1}, std::pair{"K2", f.K2}, std::pair{"K3", f.K3}}) {
+  for (const auto &[name, e] :
+       {std::pair{"K1", f.K1}, std::pair{"K2", f.K2}, std::pair{"K3", f.K3}}) {
     EXPECT_GT(e.spread, 0.4 * e.fit_error) << name;
     EXPECT_LT(e.spread, 2.5 * e.fit_error) << name;
     EXPECT_EQ(e.error, std::max(e.fit_error, e.spread)) << name;
@@ -100,7 +104,8 @@ TEST(FrankSynthetic, RecoversPrescribedConstantsInBothBoxesWithHonestErrors) {
   EXPECT_EQ(independent.replicas, 0);
 
   // Negative control: S = 1 in the normalisation scales every K by 1 / S^2 ~ 1.7.
-  FrankAccumulator control(Box{{small.side, small.side, small.side}}, 2304, small.kmax, block_config());
+  FrankAccumulator control(Box{{small.side, small.side, small.side}}, 2304, small.kmax,
+                           block_config());
   accumulate(small, 60, 5, control, nullptr);
   const FrankResult right = fit_frank({control}, fit_options(true));
   EXPECT_GT(right.planar.K3.value, 0.7 * small.K3);

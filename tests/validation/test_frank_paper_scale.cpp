@@ -43,8 +43,10 @@ TEST(FrankPaperScale, BothBoxesRecoverThePrescribedConstantsAndAgree) {
   large.tau0 = small.tau0 = 0.8;
   const auto large_runs = correlated_runs(large, 6, 40, 101);
   const auto small_runs = correlated_runs(small, 6, 150, 102);
-  const FrankResult lb = fit_frank(large_runs, fit_options(false)), ls = fit_frank(large_runs, fit_options(true));
-  const FrankResult sb = fit_frank(small_runs, fit_options(false)), ss = fit_frank(small_runs, fit_options(true));
+  const FrankResult lb = fit_frank(large_runs, fit_options(false)),
+                    ls = fit_frank(large_runs, fit_options(true));
+  const FrankResult sb = fit_frank(small_runs, fit_options(false)),
+                    ss = fit_frank(small_runs, fit_options(true));
   expect_unbiased("N = 18432, kmax 10", lb, ls, large);
   expect_unbiased("N = 2304, kmax 6", sb, ss, small);
   EXPECT_GT(lb.cubic.bins_13, 1000);  // the whole cubic range is sampled in the paper's box
