@@ -1,5 +1,4 @@
-// Frank elastic constants from FrankAccumulator data (docs/physics.md, "Frank constants"; seed
-// paper, Frank constants). Per (k1^2, k3^2) bin, E_m3 = (9/4) <S^2> V kT / <|Qk_m3|^2>, m = 1, 2;
+// Frank elastic constants from FrankAccumulator data (docs/frank.md). Per (k1^2, k3^2) bin, E_m3 = (9/4) <S^2> V kT / <|Qk_m3|^2>, m = 1, 2;
 // the theory says E_m3 = K_m k1^2 + K3 k3^2 at small k. Three estimators:
 //  planar      the plane E = K_m k1^2 + K3 k3^2 over bins with k1^2, k3^2 < 0.1 D^-2 (the
 //              paper's). Reads a secant of E_obs = E / (1 + b E), where b is the white
@@ -8,7 +7,7 @@
 //              paper's range, the same in every box); K_m = a_10, K3 = a_01. The higher terms
 //              absorb the background's -b E^2 + b^2 E^3.
 //  background  E_obs = P / (1 + b P) over the cubic's range, P = K_m k1^2 + K3 k3^2 + the
-//              three quadratic terms, with b fitted: the white background as a parameter
+//              three quadratic terms, with b >= 0 fitted: the white background as a parameter
 //              (it sets the saturation of E at large k, which no polynomial term mimics).
 // With kT = 1 these are K* = beta D K.
 //
@@ -18,9 +17,9 @@
 // measured from the spread of the bin between replicas (independent runs, or, for one run,
 // eight consecutive stretches of it) and smoothed over bins by the model phi = g0 + g1 / E,
 // since the relaxation time goes as 1 / E. Fits are weighted least squares with these
-// variances; a fit's error is its covariance, scaled up by sqrt(chi^2/dof) when that exceeds 1,
-// and the spread of the replicas' own fits is reported beside it. chi^2/dof near 1 says the
-// errors and the model fit. Serial and deterministic (bins, not bodies: milliseconds).
+// variances; a fit's error is its covariance, scaled up by sqrt(chi^2/dof) when that exceeds 1;
+// the quoted error is the larger of that and the spread of the replicas' own fits (three or
+// more replicas). chi^2/dof near 1 says the errors and the model fit. Serial and deterministic (bins, not bodies: milliseconds).
 #pragma once
 
 #include <array>

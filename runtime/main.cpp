@@ -43,6 +43,30 @@ CLI::Validator positive(const std::string &option) {
       "POSITIVE");
 }
 
+// `hardrod analyze DIR...`: its options fill `o` (and `no_plots`).
+void add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &no_plots) {
+  auto *analyze = app.add_subcommand(
+      "analyze", "merge runs: S, P* and the Frank constants with errors, analysis.json, plots");
+  analyze->add_option("dirs", o.run_dirs, "run directories")->required();
+  analyze->add_option("--out", o.output_dir,
+                      "where analysis.json and the plots go (default: the first run directory)");
+  analyze->add_flag("--subtract-self-term", o.frank.subtract_self_term,
+                    "remove the uncorrelated-rod background from <|Q_m3|^2> before fitting");
+  analyze
+      ->add_option("--planar-max-k2", o.frank.planar_max_k2,
+                   "planar fit: bins with k1^2 and k3^2 below this, D^-2 (default 0.1)")
+      ->check(CLI::PositiveNumber);
+  analyze
+      ->add_option("--cubic-max-k1sq", o.frank.cubic_max_k1sq,
+                   "cubic and background fits: bins with k1^2 up to this, D^-2 (default 2)")
+      ->check(CLI::PositiveNumber);
+  analyze
+      ->add_option("--cubic-max-k3sq", o.frank.cubic_max_k3sq,
+                   "cubic and background fits: bins with k3^2 up to this, D^-2 (default 1)")
+      ->check(CLI::PositiveNumber);
+  analyze->add_flag("--no-plots", no_plots, "skip the PNG figures");
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -126,28 +150,8 @@ int main(int argc, char **argv) {
   app.add_subcommand("info", "print the build configuration and the machine");
 
   hardrod::AnalyzeOptions analyze_options;
-  auto *analyze = app.add_subcommand(
-      "analyze", "merge runs: S, P* and the Frank constants with errors, analysis.json, plots");
-  analyze->add_option("dirs", analyze_options.run_dirs, "run directories")->required();
-  analyze->add_option("--out", analyze_options.output_dir,
-                      "where analysis.json and the plots go (default: the first run directory)");
-  analyze->add_flag("--subtract-self-term", analyze_options.frank.subtract_self_term,
-                    "remove the uncorrelated-rod background from <|Q_m3|^2> before fitting");
-  analyze
-      ->add_option(
-          "--planar-max-k2", analyze_options.frank.planar_max_k2,
-          "planar and background fits: bins with k1^2, k3^2 below this, D^-2 (default 0.1)")
-      ->check(CLI::PositiveNumber);
-  analyze
-      ->add_option("--cubic-max-k1sq", analyze_options.frank.cubic_max_k1sq,
-                   "cubic fit: bins with k1^2 up to this, D^-2 (default 2)")
-      ->check(CLI::PositiveNumber);
-  analyze
-      ->add_option("--cubic-max-k3sq", analyze_options.frank.cubic_max_k3sq,
-                   "cubic fit: bins with k3^2 up to this, D^-2 (default 1)")
-      ->check(CLI::PositiveNumber);
   bool no_plots = false;
-  analyze->add_flag("--no-plots", no_plots, "skip the PNG figures");
+  add_analyze_command(app, analyze_options, no_plots);
 
   try {
     app.parse(argc, argv);

@@ -13,7 +13,6 @@ table1.md / table1.json beside the paper's and the literature rows, and the figu
 """
 
 import json
-import math
 import os
 import shlex
 import subprocess

@@ -12,7 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from series import conservative_block_error, drift_check, mser_cut
+from series import drift_check, mser_cut
 
 ROOT = Path(__file__).resolve().parent.parent
 

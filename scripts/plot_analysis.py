@@ -113,6 +113,7 @@ def frank_cuts(plt, fr, path, max_k2, strip=0.03):
 def frank_surfaces(plt, fr, path):
     """E_13 and E_23 over (k1^2, k3^2) in the cubic fit's range: the bins as points, the cubic
     fit as a wire surface (the paper's figure 4)."""
+    import numpy as np
     r = fr["ranges"]
     xmax, ymax = r["cubic_max_k1sq"], r["cubic_max_k3sq"]
     fig = plt.figure(figsize=(10, 4.5))
@@ -131,7 +132,6 @@ def frank_surfaces(plt, fr, path):
             X = [[xmax * i / nx for i in range(nx + 1)] for _ in range(nx + 1)]
             Y = [[ymax * j / nx] * (nx + 1) for j in range(nx + 1)]
             Z = [[model_value(fit, name, x, y) for x, y in zip(xr, yr)] for xr, yr in zip(X, Y)]
-            import numpy as np
             a.plot_wireframe(np.array(X), np.array(Y), np.array(Z), color="C1", lw=0.6)
         a.set_xlabel(r"$k_1^2$")
         a.set_ylabel(r"$k_3^2$")

@@ -1,6 +1,6 @@
 // Synthetic nematics for the Frank-constant tests: rods whose director field has Gaussian
 // splay, twist and bend modes of prescribed K1, K2, K3 (optionally correlated in time, as in a
-// run) and a nematic axis distribution about it (docs/physics.md, "Frank constants").
+// run) and a nematic axis distribution about it (docs/frank.md).
 // Configurations are built so that the paper's model holds exactly in expectation:
 // Qk_m3(k) = (3/2) S dn_m(k) + white noise, with S the measured order parameter (see
 // SyntheticSampler). Fixed seeds, hand-written normal deviates: the same samples with every
