@@ -33,6 +33,10 @@ def main():
                          "more than two ranks need); it must have carried some results")
     ap.add_argument("--min-watched", type=float, default=0.0,
                     help="least share of detections through the watches (the scene must use them)")
+    ap.add_argument("--expect-checksum",
+                    help="the state_checksum the run must end with (a golden trajectory: the "
+                         "refactorings keep it bit for bit; a deliberate change of the dynamics "
+                         "updates it in the same commit)")
     args = ap.parse_args()
 
     out = pathlib.Path(args.out)
@@ -72,6 +76,10 @@ def main():
         return 1
     if summary["ranks"] != args.ranks:
         print(f"FAILED: ran on {summary['ranks']} ranks, asked for {args.ranks}")
+        return 1
+    if args.expect_checksum and summary["state_checksum"] != args.expect_checksum:
+        print(f"FAILED: state_checksum = {summary['state_checksum']}, the golden trajectory "
+              f"ends at {args.expect_checksum}")
         return 1
     if args.reference:
         ref = json.loads((pathlib.Path(args.reference) / "summary.json").read_text())
