@@ -11,11 +11,13 @@ Reads DIR/analysis.json and each run's timeseries.csv and angular.json; writes
   DIR/angular.png          distribution of axes around the director / isotropic (figure 1).
 """
 import argparse
-import csv
 import json
 import os
 import pathlib
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from hardrod_bench.outputs import timeseries_rows  # noqa: E402
 
 
 def matplotlib_or_reexec():
@@ -34,12 +36,10 @@ def matplotlib_or_reexec():
 
 
 def read_series(run):
-    path = pathlib.Path(run) / "timeseries.csv"
-    if not path.exists():
+    """A run's timeseries.csv rows, or None if it has none."""
+    if not (pathlib.Path(run) / "timeseries.csv").exists():
         return None
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    return rows
+    return timeseries_rows(run)
 
 
 def evaluate(terms, x, y):

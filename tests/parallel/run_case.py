@@ -6,11 +6,13 @@ every other configuration must reproduce its state_checksum and collision count.
 """
 import argparse
 import json
-import os
 import pathlib
 import shutil
 import subprocess
 import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "scripts"))
+from hardrod_bench import mpi  # noqa: E402  (the mpirun launcher shared with scripts/bench)
 
 
 def main():
@@ -41,9 +43,7 @@ def main():
 
     out = pathlib.Path(args.out)
     shutil.rmtree(out, ignore_errors=True)
-    cmd = []
-    if args.ranks > 1:
-        cmd = ["mpirun", "--oversubscribe", "-np", str(args.ranks)]
+    cmd = mpi.prefix(args.ranks)
     cmd += [args.hardrod, "run", args.scene, "--out", str(out), "--threads", str(args.threads),
             "--quiet", "--force"]
     if args.verify:
@@ -56,9 +56,7 @@ def main():
         cmd += ["--balance", args.balance]
     for s in args.set:
         cmd += ["--set", s]
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_mpi_yield_when_idle="1",
-               OMP_WAIT_POLICY="passive")
+    env = mpi.environment()
     print(" ".join(cmd), flush=True)
     proc = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     print(proc.stdout)

@@ -15,23 +15,23 @@ bodies, one about a third and one none. Then:
   - a bad `--balance` or `--balance-interval` value is refused with exit status 1, naming it.
 """
 import json
-import os
 import pathlib
 import shutil
 import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "scripts"))
+from hardrod_bench import mpi  # noqa: E402  (the mpirun launcher shared with scripts/bench)
+
 import h5py
 
 
 def run(hardrod, scene, out, ranks, extra):
-    cmd = ["mpirun", "--oversubscribe", "-np", str(ranks)] if ranks > 1 else []
+    cmd = mpi.prefix(ranks)
     cmd += [hardrod, "run", str(scene), "--out", str(out), "--quiet", "--force", "--threads", "1",
             *extra]
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_mpi_yield_when_idle="1",
-               OMP_WAIT_POLICY="passive")
+    env = mpi.environment()
     print("$", " ".join(cmd), flush=True)
     proc = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     if proc.returncode != 0:

@@ -27,6 +27,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "scripts"))
+from hardrod_bench import mpi  # noqa: E402  (the mpirun launcher shared with scripts/bench)
+
 import h5py
 import numpy as np
 
@@ -87,14 +90,13 @@ class Runner:
         self.mpirun = mpirun
         self.work = pathlib.Path(work)
         self.scene = self.source / "tests/parallel/rods.toml"
-        self.env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                        OMP_WAIT_POLICY="passive")
+        self.env = mpi.environment()
 
     def command(self, args, ranks=1, threads=1):
         cmd = [self.hardrod] + args + ["--quiet", "--threads", str(threads)]
         if ranks > 1:
             # exec: a signal to the process goes to mpirun itself, not to a shell around it.
-            cmd = [self.mpirun, "--oversubscribe", "-np", str(ranks)] + cmd
+            cmd = mpi.prefix(ranks, mpirun=self.mpirun) + cmd
         return cmd
 
     def run(self, args, ranks=1, threads=1, expect=0):

@@ -5,16 +5,14 @@ figures and its printed table in OUT/nN/analyze.log), the equilibration judged f
 S(t) (`equilibration_verdict`), then one table beside the paper's Table 1 and the literature.
 """
 
-import csv
 import json
 import math
-import subprocess
 import sys
 from pathlib import Path
 
-from series import drift_check, mser_cut
-
-ROOT = Path(__file__).resolve().parent.parent
+from .common import HARDROD
+from .outputs import analyze_runs, order_parameter_series
+from .stats import drift_check, mser_cut
 
 # The paper's Table 1 (N = 18432, rho* = 0.5, L/D = 5) and the rows it compares with; K in
 # units of kT / D. Allen & Frenkel's K are rescaled by 9/4 as in the paper.
@@ -35,21 +33,10 @@ FITS = ("cubic", "planar", "background")
 CONSTANTS = ("K1", "K2", "K3", "K3_from_E13", "K3_from_E23")
 
 
-def series(run_dir):
-    """(time, phase, S) of a run's timeseries.csv, sampled from t = 0."""
-    t, phase, S = [], [], []
-    with open(Path(run_dir) / "timeseries.csv") as f:
-        for r in csv.DictReader(f):
-            t.append(float(r["time"]))
-            phase.append(r["phase"])
-            S.append(float(r["order_parameter"]))
-    return t, phase, S
-
-
 def run_equilibration(run_dir):
     """One run's S(t) from the lattice start: the MSER-5 cut (White 1997, at most half the
     series) and the production's drift, mean S of the last third minus the first third."""
-    t, phase, S = series(run_dir)
+    t, phase, S = order_parameter_series(run_dir)
     cut = mser_cut(S)
     t_cut = t[cut] if cut < len(t) else float("nan")
     t_prod = next((ti for ti, p in zip(t, phase) if p == "production"), float("nan"))
@@ -61,7 +48,7 @@ def run_equilibration(run_dir):
 def mean_series_cut(runs):
     """The MSER-5 cut of S(t) averaged over the seeds (same sampling times): the relaxation from
     the lattice is common to all seeds, their slow fluctuations average down."""
-    series_ = [series(r["run"]) for r in runs]
+    series_ = [order_parameter_series(r["run"]) for r in runs]
     n = min(len(t) for t, _, _ in series_)
     if n == 0:
         return float("nan")
@@ -93,16 +80,6 @@ def equilibration_verdict(runs):
     ok = cuts_ok and abs(mean) <= 3.0 * error
     return {"equilibrated": bool(ok), "drift": mean, "drift_error": error, "drift_error_from": how,
             "mean_series_cut_tau": mean_cut, "cut_inside_equilibration": cuts_ok, "runs": runs}
-
-
-def analyze(hardrod, dirs, out):
-    out.mkdir(parents=True, exist_ok=True)
-    argv = [str(hardrod), "analyze", *map(str, dirs), "--out", str(out)]
-    proc = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
-    (out / "analyze.log").write_text("$ " + " ".join(argv) + "\n" + proc.stdout + proc.stderr)
-    if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(argv)} failed (exit {proc.returncode}); see {out / 'analyze.log'}")
-    return json.loads((out / "analysis.json").read_text())
 
 
 def pm(e, digits=3):
@@ -180,7 +157,7 @@ def plot_order_parameter(rows, out):
     for r in rows:
         runs = r["equilibration"]["runs"]
         for v in runs:
-            t, _, S = series(v["run"])
+            t, _, S = order_parameter_series(v["run"])
             ax.plot(t, S, lw=0.5, label=f"N = {r['N']}" if v is runs[0] else None,
                     color="C0" if r["N"] == 18432 else "C1")
         ax.axvline(runs[0]["production_starts_tau"], color="grey", lw=0.8, ls="--")
@@ -211,7 +188,7 @@ def report(args, runs):
         if not done:
             print(f"bench paper: no finished run at N = {n}", file=sys.stderr)
             continue
-        a = analyze(ROOT / "build" / "hardrod", done, out / f"n{n}")
+        a = analyze_runs(HARDROD, done, out / f"n{n}")
         rows.append(size_row(n, a, equilibration_verdict([run_equilibration(d) for d in done])))
     if not rows:
         return 1

@@ -12,7 +12,6 @@ errors and chi^2 per fit), the equilibration judged from S (see `equilibration_v
 table1.md / table1.json beside the paper's and the literature rows, and the figures.
 """
 
-import json
 import os
 import shlex
 import subprocess
@@ -22,8 +21,8 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-HARDROD = ROOT / "build" / "hardrod"
+from .common import HARDROD, ROOT
+from .outputs import load_json
 
 # The two systems of the paper's finite-size study that fit on a workstation. kmax reaches the
 # cubic fit's range (k1^2 <= 2, k3^2 <= 1 D^-2) in each box; production is longer in the small
@@ -93,14 +92,6 @@ class PaperRun:
         return self.n * (self.equil_tau + self.prod_tau)
 
 
-def load_json(path):
-    try:
-        with open(path) as f:
-            return json.load(f)
-    except (OSError, ValueError):
-        return None
-
-
 def plan(args):
     runs = []
     for n in args.sizes:
@@ -152,6 +143,10 @@ def run_phase(args, runs):
     return failed
 
 
+HELP = "the paper's Table 1 at N = 18432 and 2304: six seeds, S, P*, K1..K3, figures"
+DESCRIPTION = __doc__
+
+
 def add_arguments(sp):
     sp.add_argument("--dry-run", action="store_true", help="print one hardrod command per run, run nothing")
     sp.add_argument("--out", default=str(ROOT / "results" / "paper"),
@@ -188,5 +183,5 @@ def main(args):
         if failed:
             print(f"bench paper: {len(failed)} runs failed; rerun the command to retry them", file=sys.stderr)
             return 1
-    import bench_paper_report
-    return bench_paper_report.report(args, runs)
+    from . import paper_report
+    return paper_report.report(args, runs)
