@@ -1,218 +1,41 @@
-// Scene files: TOML text plus "section.key=value" overrides -> a validated Scene, and back.
-// Derives the box from reduced_density, packing_fraction or explicit sides (SPEC.md section 1)
-// and resolves the "auto" lattice. Every problem is collected and reported together, each
-// naming the full key and the offending value (STYLE.md habit 8). scene_to_toml writes a
-// canonical form that parse_scene reads back to the identical Scene. No globals, no MPI.
+// Scene files: TOML text plus "section.key=value" overrides -> a validated Scene. Each key's
+// type and own limits come from the key table (runtime/scene_keys.hpp); this file holds the
+// flow (overrides, unknown keys, the sections in order) and the rules that tie keys together:
+// exactly one density key and the box derived from it (docs/physics.md section 1), and the
+// lattice ("auto" resolved) that must hold n bodies without overlap. Every problem is
+// collected and reported together, each naming the full key and the offending value.
+// Writing the scene back is the table's too (scene_keys.cpp). No globals, no MPI.
 #include "runtime/scene.hpp"
 
 #include <toml++/toml.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <numbers>
 #include <sstream>
 #include <string_view>
 #include <utility>
+
+#include "runtime/scene_keys.hpp"
+#include "runtime/scene_text.hpp"
 
 namespace hardrod {
 
 namespace {
 
-// Far beyond any machine; keeps the trial-division factorisation behind "auto" instant.
-constexpr long long kMaxBodies = 1'000'000'000'000;
-constexpr bool kRequired = true;
+using namespace scene_detail;
 
-struct KeySpec {
-  std::string_view section;
-  std::string_view name;
-  bool is_string = false;  // an override value for it is taken literally, "2024" included
-};
-
-// The public key names, in canonical order.
-constexpr KeySpec kKeys[] = {
-    {"system", "shape", true},
-    {"system", "aspect_ratio"},
-    {"system", "n"},
-    {"system", "reduced_density"},
-    {"system", "packing_fraction"},
-    {"system", "box"},
-    {"init", "configuration", true},
-    {"init", "lattice"},
-    {"init", "axis", true},
-    {"init", "file", true},
-    {"init", "frame"},
-    {"init", "seed"},
-    {"init", "temperature"},
-    {"run", "dt"},
-    {"run", "equilibration_steps"},
-    {"run", "steps"},
-    {"run", "thermostat_interval"},
-    {"run", "sample_interval"},
-    {"run", "max_overlap"},
-    {"run", "solver_tolerance"},
-    {"run", "solver_max_iterations"},
-    {"run", "skin"},
-    {"output", "dir", true},
-    {"output", "log_interval"},
-    {"output", "snapshot_interval"},
-    {"output", "checkpoint_interval"},
-    {"observables", "frank"},
-    {"observables", "fourier_kmax"},
-    {"observables", "fourier_interval"},
-};
-constexpr std::string_view kSections[] = {"system", "init", "run", "output", "observables"};
 constexpr std::string_view kDensityKeys[] = {"reduced_density", "packing_fraction", "box"};
 constexpr std::string_view kAxisNames[] = {"x", "y", "z"};
-constexpr std::string_view kConfigurations[] = {"lattice", "file",
-                                                "isotropic"};  // order of Configuration
 
-// ---- text -------------------------------------------------------------------------------
-
-std::string full_key(std::string_view section, std::string_view name) {
-  return std::string(section) + "." + std::string(name);
-}
-
-std::string join(const std::vector<std::string> &parts, std::string_view separator) {
-  std::string joined;
-  for (std::size_t i = 0; i < parts.size(); ++i) {
-    if (i > 0) joined += separator;
-    joined += parts[i];
-  }
-  return joined;
-}
-
-std::string trim(std::string_view s) {
-  const auto first = s.find_first_not_of(" \t");
-  if (first == std::string_view::npos) return {};
-  return std::string(s.substr(first, s.find_last_not_of(" \t") - first + 1));
-}
-
-// Shortest text that reads back to the same double, always recognisable as a TOML float.
-std::string format_real(double v) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
-  std::string text(buffer, result.ptr);
-  if (std::isfinite(v) && text.find_first_of(".e") == std::string::npos) text += ".0";
-  return text;
-}
-
-// For derived numbers in messages (spacings, sides): readable rather than exact.
-std::string format_short(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", v);
-  return buffer;
-}
-
-// A TOML basic string: quotes, backslashes and control characters escaped.
-std::string quote(std::string_view s) {
-  std::string quoted = "\"";
-  for (const char c : s) {
-    const auto byte = static_cast<unsigned char>(c);
-    if (c == '"' || c == '\\') {
-      quoted += '\\';
-      quoted += c;
-    } else if (c == '\n') {
-      quoted += "\\n";
-    } else if (c == '\t') {
-      quoted += "\\t";
-    } else if (byte < 0x20 || byte == 0x7f) {
-      char escape[8];
-      std::snprintf(escape, sizeof escape, "\\u%04X", byte);
-      quoted += escape;
-    } else {
-      quoted += c;
-    }
-  }
-  return quoted + "\"";
-}
-
-// The offending value as the user wrote it, cut short if it is long junk.
-std::string describe(const toml::node &node) {
-  std::string text;
-  if (const auto *array = node.as_array()) {
-    std::vector<std::string> items;
-    for (const toml::node &item : *array) items.push_back(describe(item));
-    text = "[" + join(items, ", ") + "]";
-  } else if (node.is_table()) {
-    text = "{...}";
-  } else if (const auto *real = node.as_floating_point()) {
-    text = format_real(real->get());
-  } else if (const auto *integer = node.as_integer()) {
-    text = std::to_string(integer->get());
-  } else if (const auto *string = node.as_string()) {
-    text = quote(string->get());
-  } else {
-    std::ostringstream out;  // booleans, dates and times
-    node.visit([&out](const auto &value) { out << value; });
-    text = out.str();
-  }
-  constexpr std::size_t kMaxShown = 60;
-  return text.size() > kMaxShown ? text.substr(0, kMaxShown) + "..." : text;
-}
-
-// ---- key names and suggestions ----------------------------------------------------------
-
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1] ? 1 : 0)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
-
-bool close_enough(std::size_t distance, std::string_view word) {
-  return distance <= std::max<std::size_t>(2, word.size() / 3);
-}
-
-const KeySpec *find_key(std::string_view full) {
-  for (const KeySpec &spec : kKeys)
-    if (full_key(spec.section, spec.name) == full) return &spec;
-  return nullptr;
-}
-
-// "unknown key 'run.dtt' (did you mean 'run.dt'?)"; a bare name is matched by key name.
-std::string unknown_key(std::string_view full) {
-  const auto dot = full.find('.');
-  const std::string_view name = dot == std::string_view::npos ? full : full.substr(dot + 1);
-  std::string best;
-  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
-  for (const KeySpec &spec : kKeys) {
-    const std::string candidate = full_key(spec.section, spec.name);
-    std::size_t distance = spec.name == name ? 0 : edit_distance(full, candidate);
-    if (dot == std::string_view::npos)
-      distance = std::min(distance, edit_distance(name, spec.name));
-    if (distance < best_distance) best_distance = distance, best = candidate;
-  }
-  std::string message = "unknown key '" + std::string(full) + "'";
-  if (close_enough(best_distance, full)) message += " (did you mean '" + best + "'?)";
-  return message;
-}
-
-std::string unknown_section(std::string_view name) {
-  std::string message = "unknown section '[" + std::string(name) + "]'";
-  for (const std::string_view section : kSections)
-    if (close_enough(edit_distance(name, section), name))
-      return message + " (did you mean '[" + std::string(section) + "]'?)";
-  return message + " (sections: [system], [init], [run], [output], [observables])";
-}
+// ---- keys and overrides -----------------------------------------------------------------
 
 void check_known_keys(const toml::table &root, std::vector<std::string> &problems) {
   for (const auto &[key, node] : root) {
     const std::string_view name = key.str();
-    const bool is_section =
-        std::find(std::begin(kSections), std::end(kSections), name) != std::end(kSections);
+    const bool is_section = std::ranges::find(scene_sections(), name) != scene_sections().end();
     if (!is_section) {
       problems.push_back(node.is_table() ? unknown_section(name) : unknown_key(name));
     } else if (!node.is_table()) {
@@ -226,8 +49,6 @@ void check_known_keys(const toml::table &root, std::vector<std::string> &problem
     }
   }
 }
-
-// ---- overrides --------------------------------------------------------------------------
 
 // "section.key=value": value in TOML syntax, or else taken as a bare string. A density key
 // replaces whichever density key the file gave, so one override can switch between them.
@@ -263,117 +84,14 @@ void apply_override(toml::table &root, const std::string &text,
     // not a TOML value: a bare string such as runs/x
   }
   const toml::node *value = parsed.size() == 1 ? parsed.get("value") : nullptr;
-  if (!value || (spec->is_string && !value->is_string())) {
+  if (!value || (is_string_key(*spec) && !value->is_string())) {
     section->insert_or_assign(spec->name, raw);
   } else {
     value->visit([&](const auto &typed) { section->insert_or_assign(spec->name, typed); });
   }
 }
 
-// ---- reading values ---------------------------------------------------------------------
-
-std::optional<long long> as_integer(const toml::node &node) {
-  if (const auto *integer = node.as_integer()) return integer->get();
-  if (const auto *real = node.as_floating_point()) {  // 1e8 is a fine step count
-    const double v = real->get();
-    if (std::isfinite(v) && v == std::trunc(v) && std::fabs(v) <= 0x1p53)
-      return static_cast<long long>(v);
-  }
-  return std::nullopt;
-}
-
-std::optional<bool> as_boolean(const toml::node &node) {
-  if (const auto *b = node.as_boolean()) return b->get();
-  return std::nullopt;
-}
-
-std::optional<double> as_real(const toml::node &node) {
-  if (const auto *integer = node.as_integer()) return static_cast<double>(integer->get());
-  if (const auto *real = node.as_floating_point()) return real->get();
-  return std::nullopt;
-}
-
-std::optional<std::string> as_string(const toml::node &node) {
-  if (const auto *string = node.as_string()) return string->get();
-  return std::nullopt;
-}
-
-// Typed access to the parsed table that records every problem it meets. Each get leaves
-// `out` at its default when the key is absent and returns false only after a report.
-class Reader {
- public:
-  Reader(const toml::table &root, std::vector<std::string> &problems)
-      : root_(root), problems_(problems) {}
-
-  const toml::node *find(std::string_view section, std::string_view name) const {
-    const toml::table *table = root_.get_as<toml::table>(section);
-    return table ? table->get(name) : nullptr;
-  }
-
-  bool get(std::string_view section, std::string_view name, long long &out, bool required = false) {
-    return fetch(section, name, out, required, as_integer, "expected an integer");
-  }
-  bool get(std::string_view section, std::string_view name, double &out, bool required = false) {
-    return fetch(section, name, out, required, as_real, "expected a number");
-  }
-  bool get(std::string_view section, std::string_view name, std::string &out,
-           bool required = false) {
-    return fetch(section, name, out, required, as_string, "expected a string");
-  }
-  bool get(std::string_view section, std::string_view name, bool &out, bool required = false) {
-    return fetch(section, name, out, required, as_boolean, "expected true or false");
-  }
-
-  // Reports "section.key = value: why" unless `holds`.
-  bool check(std::string_view section, std::string_view name, bool holds, std::string_view why) {
-    if (!holds) report(section, name, why);
-    return holds;
-  }
-  void report(std::string_view section, std::string_view name, std::string_view why) {
-    const toml::node *node = find(section, name);
-    add(full_key(section, name) + " = " + (node ? describe(*node) : "(default)") + ": " +
-        std::string(why));
-  }
-  void add(std::string problem) { problems_.push_back(std::move(problem)); }
-
- private:
-  template <class T, class Convert>
-  bool fetch(std::string_view section, std::string_view name, T &out, bool required,
-             Convert convert, std::string_view expected) {
-    const toml::node *node = find(section, name);
-    if (!node) {
-      if (required) add("missing required key '" + full_key(section, name) + "'");
-      return !required;
-    }
-    if (std::optional<T> value = convert(*node)) {
-      out = std::move(*value);
-      return true;
-    }
-    report(section, name, expected);
-    return false;
-  }
-
-  const toml::table &root_;
-  std::vector<std::string> &problems_;
-};
-
-bool read_at_least(Reader &in, std::string_view section, std::string_view name, long long &out,
-                   long long minimum, bool required = false) {
-  return in.get(section, name, out, required) &&
-         in.check(section, name, out >= minimum, "must be >= " + std::to_string(minimum));
-}
-
-// Reads a number in (low, high), or (low, high] when `high_inclusive`; NaN never passes.
-bool read_between(Reader &in, std::string_view section, std::string_view name, double &out,
-                  double low, double high, bool high_inclusive = false) {
-  if (!in.get(section, name, out)) return false;
-  const bool inside = out > low && (high_inclusive ? out <= high : out < high);
-  return in.check(section, name, inside,
-                  "must be in (" + format_short(low) + ", " + format_short(high) +
-                      (high_inclusive ? "]" : ")"));
-}
-
-// ---- box and lattice geometry -----------------------------------------------------------
+// ---- the rules between keys: box and lattice --------------------------------------------
 
 // Which earlier reads succeeded, so derived checks run only on sound inputs (no cascades).
 struct Validity {
@@ -565,97 +283,29 @@ void read_lattice(Reader &in, Scene &scene, const Validity &ok) {
                " overlap: " + join(overlaps, "; "));
 }
 
-// ---- the four sections ------------------------------------------------------------------
+// ---- the sections -----------------------------------------------------------------------
 
-void read_system(Reader &in, Scene &scene, Validity &ok) {
-  ok.shape = in.get("system", "shape", scene.shape_name) &&
-             in.check("system", "shape",
-                      scene.shape_name == "spherocylinder" || scene.shape_name == "sphere",
-                      "must be \"spherocylinder\" or \"sphere\"");
-  const bool sphere = ok.shape && scene.shape_name == "sphere";
-  double aspect_ratio = sphere ? 0.0 : Shape{}.length;
-  ok.shape = in.get("system", "aspect_ratio", aspect_ratio) &&
-             in.check("system", "aspect_ratio", std::isfinite(aspect_ratio) && aspect_ratio >= 0.0,
-                      "must be >= 0 and finite") &&
-             in.check("system", "aspect_ratio", !sphere || aspect_ratio == 0.0,
-                      "must be 0 (or absent) for shape = \"sphere\"") &&
-             ok.shape;
-  scene.shape.length = aspect_ratio * scene.shape.diameter;
-  ok.n = in.get("system", "n", scene.n, kRequired) &&
-         in.check("system", "n", scene.n >= 1 && scene.n <= kMaxBodies, "must be in [1, 10^12]");
-  ok.box = read_box(in, scene, ok);
+// The keys of one section that the table reads by themselves, in table order.
+void read_section(Reader &in, std::string_view section, Scene &scene) {
+  for (const KeySpec &spec : scene_keys())
+    if (spec.section == section && !spec.cross) read_key(in, spec, scene);
 }
 
-void read_init(Reader &in, Scene &scene, Validity &ok) {
-  std::string axis_name = "x";
-  ok.axis = in.get("init", "axis", axis_name);
-  const auto axis = std::find(std::begin(kAxisNames), std::end(kAxisNames), axis_name);
-  ok.axis = ok.axis &&
-            in.check("init", "axis", axis != std::end(kAxisNames), "must be \"x\", \"y\" or \"z\"");
-  if (ok.axis) scene.axis = static_cast<int>(axis - std::begin(kAxisNames));
-  auto seed = static_cast<long long>(scene.seed);
-  if (read_at_least(in, "init", "seed", seed, 0))
-    scene.seed = static_cast<unsigned long long>(seed);
-  in.get("init", "temperature", scene.temperature) &&
-      in.check("init", "temperature", std::isfinite(scene.temperature) && scene.temperature > 0.0,
-               "must be > 0 and finite");
-  std::string configuration = "lattice";
-  if (in.get("init", "configuration", configuration)) {
-    const auto known =
-        std::find(std::begin(kConfigurations), std::end(kConfigurations), configuration);
-    if (in.check("init", "configuration", known != std::end(kConfigurations),
-                 "must be \"lattice\", \"isotropic\" or \"file\""))
-      scene.configuration = static_cast<Configuration>(known - std::begin(kConfigurations));
-  }
-  if (scene.configuration == Configuration::kFile) {
-    in.get("init", "file", scene.init_file, kRequired) &&
-        in.check("init", "file", !scene.init_file.empty(), "must name an H5MD file");
-    in.get("init", "frame", scene.init_frame);
-  }
+Scene read_scene(Reader &in) {
+  Scene scene;
+  Validity ok;
+  read_section(in, "system", scene);
+  ok.shape = in.sound("system", "shape") && in.sound("system", "aspect_ratio");
+  ok.n = in.sound("system", "n");
+  ok.box = read_box(in, scene, ok);
+  read_section(in, "init", scene);
+  ok.axis = in.sound("init", "axis");
   // The lattice is read (and must fit) only when the bodies start on it.
   if (scene.configuration == Configuration::kLattice) read_lattice(in, scene, ok);
-}
-
-void read_run(Reader &in, Scene &scene) {
-  in.get("run", "dt", scene.dt, kRequired) &&
-      in.check("run", "dt", std::isfinite(scene.dt) && scene.dt > 0.0, "must be > 0 and finite");
-  read_at_least(in, "run", "equilibration_steps", scene.equilibration_steps, 0);
-  read_at_least(in, "run", "steps", scene.steps, 0, kRequired);
-  read_at_least(in, "run", "thermostat_interval", scene.thermostat_interval, 0);
-  read_at_least(in, "run", "sample_interval", scene.sample_interval, 1);
-  read_between(in, "run", "max_overlap", scene.max_overlap, 0.0, 0.5);
-  read_between(in, "run", "solver_tolerance", scene.solver_tolerance, 0.0, 1.0);
-  read_at_least(in, "run", "solver_max_iterations", scene.solver_max_iterations, 1);
-  read_between(in, "run", "skin", scene.skin, 0.0, 2.0, true);
-}
-
-void read_output(Reader &in, Scene &scene) {
-  in.get("output", "dir", scene.output_dir) &&
-      in.check("output", "dir", !scene.output_dir.empty(), "must not be empty");
-  read_at_least(in, "output", "log_interval", scene.log_interval, 0);
-  read_at_least(in, "output", "snapshot_interval", scene.snapshot_interval, 0);
-  read_at_least(in, "output", "checkpoint_interval", scene.checkpoint_interval, 0);
-}
-
-// Default fourier_kmax: the modes up to |k_a| ~ 1 D^-1 along the longest side, which cover the
-// cubic fit's range (k1^2 <= 2, k3^2 <= 1 D^-2): 10 in the paper's 57 D box, 6 in a 28.5 D box.
-// The cost grows as kmax^3, so a small box does not pay for modes no fit uses.
-int default_fourier_kmax(const Box &box) {
-  const double longest = std::max({box.length.x, box.length.y, box.length.z});
-  if (!std::isfinite(longest) || !(longest > 0.0)) return 10;
-  return static_cast<int>(
-      std::clamp(1.0 + std::round(longest / (2.0 * std::numbers::pi)), 2.0, 64.0));
-}
-
-// The Frank-constant sampling costs nothing unless asked for.
-void read_observables(Reader &in, Scene &scene) {
-  in.get("observables", "frank", scene.frank);
-  if (!in.find("observables", "fourier_kmax")) scene.fourier_kmax = default_fourier_kmax(scene.box);
-  long long kmax = scene.fourier_kmax;
-  if (read_at_least(in, "observables", "fourier_kmax", kmax, 1) &&
-      in.check("observables", "fourier_kmax", kmax <= 64, "must be at most 64"))
-    scene.fourier_kmax = static_cast<int>(kmax);
-  read_at_least(in, "observables", "fourier_interval", scene.fourier_interval, 0);
+  read_section(in, "run", scene);
+  read_section(in, "output", scene);
+  read_section(in, "observables", scene);
+  return scene;
 }
 
 }  // namespace
@@ -678,13 +328,7 @@ Scene parse_scene(const std::string &toml_text, const std::vector<std::string> &
   check_known_keys(root, problems);
 
   Reader in(root, problems);
-  Scene scene;
-  Validity ok;
-  read_system(in, scene, ok);
-  read_init(in, scene, ok);
-  read_run(in, scene);
-  read_output(in, scene);
-  read_observables(in, scene);
+  Scene scene = read_scene(in);
   if (!problems.empty()) throw SceneError(std::move(problems));
   return scene;
 }
@@ -699,50 +343,6 @@ Scene load_scene(const std::string &path, const std::vector<std::string> &overri
   text << file.rdbuf();
   if (file.bad()) throw SceneError({path + ": cannot read scene file"});
   return parse_scene(text.str(), overrides, path);
-}
-
-std::string scene_to_toml(const Scene &scene) {
-  const auto &box = scene.box.length;
-  std::ostringstream out;
-  out << "# hardrod scene, canonical form: every value resolved, box and lattice explicit\n"
-      << "[system]\n"
-      << "shape = " << quote(scene.shape_name) << "\n"
-      << "aspect_ratio = " << format_real(scene.shape.length / scene.shape.diameter) << "\n"
-      << "n = " << scene.n << "\n"
-      << "box = [" << format_real(box.x) << ", " << format_real(box.y) << ", " << format_real(box.z)
-      << "]\n\n"
-      << "[init]\n"
-      << "configuration = " << quote(kConfigurations[static_cast<std::size_t>(scene.configuration)])
-      << "\n";
-  if (scene.configuration == Configuration::kLattice)
-    out << "lattice = [" << scene.lattice[0] << ", " << scene.lattice[1] << ", " << scene.lattice[2]
-        << "]\n";
-  if (scene.configuration == Configuration::kFile)
-    out << "file = " << quote(scene.init_file) << "\n"
-        << "frame = " << scene.init_frame << "\n";
-  out << "axis = " << quote(kAxisNames[std::clamp(scene.axis, 0, 2)]) << "\n"
-      << "seed = " << scene.seed << "\n"
-      << "temperature = " << format_real(scene.temperature) << "\n\n"
-      << "[run]\n"
-      << "dt = " << format_real(scene.dt) << "\n"
-      << "equilibration_steps = " << scene.equilibration_steps << "\n"
-      << "steps = " << scene.steps << "\n"
-      << "thermostat_interval = " << scene.thermostat_interval << "\n"
-      << "sample_interval = " << scene.sample_interval << "\n"
-      << "max_overlap = " << format_real(scene.max_overlap) << "\n"
-      << "solver_tolerance = " << format_real(scene.solver_tolerance) << "\n"
-      << "solver_max_iterations = " << scene.solver_max_iterations << "\n"
-      << "skin = " << format_real(scene.skin) << "\n\n"
-      << "[output]\n"
-      << "dir = " << quote(scene.output_dir) << "\n"
-      << "log_interval = " << scene.log_interval << "\n"
-      << "snapshot_interval = " << scene.snapshot_interval << "\n"
-      << "checkpoint_interval = " << scene.checkpoint_interval << "\n\n"
-      << "[observables]\n"
-      << "frank = " << (scene.frank ? "true" : "false") << "\n"
-      << "fourier_kmax = " << scene.fourier_kmax << "\n"
-      << "fourier_interval = " << scene.fourier_interval << "\n";
-  return out.str();
 }
 
 }  // namespace hardrod

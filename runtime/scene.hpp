@@ -76,4 +76,8 @@ Scene parse_scene(const std::string &toml_text, const std::vector<std::string> &
 // The scene as canonical TOML (written next to a run's output so it can be reproduced).
 std::string scene_to_toml(const Scene &scene);
 
+// Every scene key, one line each in canonical order: "run.dt (number; required): time step
+// in tau". From the key table (runtime/scene_keys.hpp), so it cannot fall behind the reader.
+std::string scene_keys_reference();
+
 }  // namespace hardrod

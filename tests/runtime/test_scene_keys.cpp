@@ -1,0 +1,171 @@
+// The scene-key table (runtime/scene_keys.hpp): it is the one spelling of the keys, so every
+// key has help and a line in the reference, is found by name, is written back exactly when it
+// applies, and is reported by name and value when given a wrong value; the defaults of the
+// keys a scene may leave out are pinned here. The reading itself: test_scene.cpp.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "runtime/scene.hpp"
+#include "runtime/scene_keys.hpp"
+
+namespace hardrod {
+namespace {
+
+using namespace scene_detail;
+
+// Every key given: the file keys are set by the tests that need them.
+const std::string kScene = R"([system]
+shape = "spherocylinder"
+aspect_ratio = 5.0
+n = 2304
+reduced_density = 0.5
+[init]
+lattice = [4, 24, 24]
+axis = "x"
+seed = 1
+temperature = 1.0
+[run]
+dt = 1e-4
+equilibration_steps = 10
+steps = 20
+thermostat_interval = 200
+sample_interval = 1000
+max_overlap = 0.05
+solver_tolerance = 1e-10
+solver_max_iterations = 1000
+skin = 0.3
+[output]
+dir = "runs/keys"
+log_interval = 0
+snapshot_interval = 0
+checkpoint_interval = 0
+[observables]
+frank = false
+fourier_kmax = 6
+fourier_interval = 0
+)";
+
+// The problems of a scene that must fail; fails the test if it parses.
+std::vector<std::string> problems_of(const std::string &text,
+                                     const std::vector<std::string> &overrides) {
+  try {
+    parse_scene(text, overrides);
+  } catch (const SceneError &error) {
+    return error.problems();
+  }
+  ADD_FAILURE() << "scene parsed but should not have:\n" << text;
+  return {};
+}
+
+bool contains(const std::vector<std::string> &problems, const std::string &fragment) {
+  return std::any_of(problems.begin(), problems.end(), [&](const std::string &problem) {
+    return problem.find(fragment) != std::string::npos;
+  });
+}
+
+std::string lines(const std::vector<std::string> &problems) {
+  std::string text;
+  for (const auto &problem : problems) text += "  " + problem + "\n";
+  return text;
+}
+
+// The key table is the one spelling of the keys: every key has help, is known to --set, and
+// the canonical writer writes exactly the table's keys that apply (densities as the box).
+TEST(SceneKeys, KeyTableDrivesReferenceOverridesAndWriter) {
+  const std::string reference = scene_keys_reference();
+  const auto keys = scene_keys();
+  EXPECT_EQ(keys.size(), 29u);
+  EXPECT_EQ(std::count(reference.begin(), reference.end(), '\n'), 29) << reference;
+  for (const auto &spec : keys) {
+    const std::string key = std::string(spec.section) + "." + std::string(spec.name);
+    EXPECT_FALSE(spec.help.empty()) << key;
+    EXPECT_NE(reference.find(key + " ("), std::string::npos) << key << "\n" << reference;
+    EXPECT_EQ(find_key(key), &spec) << key;
+  }
+  EXPECT_NE(reference.find("run.dt (number; required): time step in tau"), std::string::npos)
+      << reference;
+  EXPECT_NE(reference.find("run.thermostat_interval (integer; 200): "), std::string::npos)
+      << reference;
+  EXPECT_NE(reference.find("init.lattice (\"auto\" or [3 integers]; \"auto\"): "),
+            std::string::npos)
+      << reference;
+
+  // Written: every key but the densities (the box stands for them), the lattice only for a
+  // lattice start and the file keys only for a file start.
+  for (const char *configuration : {"lattice", "file", "isotropic"}) {
+    std::vector<std::string> set = {std::string("init.configuration=") + configuration};
+    if (std::string(configuration) == "file") set.push_back("init.file=x.h5");
+    const std::string text = scene_to_toml(parse_scene(kScene, set));
+    for (const auto &spec : keys) {
+      std::string line = "\n";
+      line += spec.name;
+      line += " = ";
+      const bool density = spec.name == "reduced_density" || spec.name == "packing_fraction";
+      const std::string start = configuration;
+      const bool applies = spec.name == "lattice"                        ? start == "lattice"
+                           : spec.name == "file" || spec.name == "frame" ? start == "file"
+                                                                         : true;
+      EXPECT_EQ(text.find(line) != std::string::npos, !density && applies)
+          << spec.name << " with configuration " << configuration << ":\n"
+          << text;
+    }
+  }
+}
+
+// The defaults of the keys a scene may leave out (the public defaults, issue 2).
+TEST(SceneKeys, DefaultsOfAbsentKeys) {
+  const Scene s = parse_scene(
+      "[system]\nn = 2304\nreduced_density = 0.5\n[run]\ndt = 1e-4\n"
+      "steps = 10\n");
+  EXPECT_EQ(s.shape_name, "spherocylinder");
+  EXPECT_EQ(s.shape.length, 5.0);
+  EXPECT_EQ(s.configuration, Configuration::kLattice);
+  EXPECT_EQ(s.lattice, (std::array<long long, 3>{4, 24, 24}));  // "auto"
+  EXPECT_EQ(s.axis, 0);
+  EXPECT_EQ(s.seed, 1u);
+  EXPECT_EQ(s.temperature, 1.0);
+  EXPECT_EQ(s.equilibration_steps, 0);
+  EXPECT_EQ(s.thermostat_interval, 200);
+  EXPECT_EQ(s.sample_interval, 1000);
+  EXPECT_EQ(s.max_overlap, 0.05);
+  EXPECT_EQ(s.solver_tolerance, 1e-10);
+  EXPECT_EQ(s.solver_max_iterations, 1000);
+  EXPECT_EQ(s.skin, 0.3);
+  EXPECT_EQ(s.output_dir, "runs/default");
+  EXPECT_EQ(s.log_interval, 0);
+  EXPECT_EQ(s.snapshot_interval, 0);
+  EXPECT_EQ(s.checkpoint_interval, 0);
+  EXPECT_FALSE(s.frank);
+  EXPECT_EQ(s.fourier_kmax, 6);  // from the 28.5 D box
+  EXPECT_EQ(s.fourier_interval, 0);
+  EXPECT_EQ(parse_scene("[system]\nshape = \"sphere\"\nn = 8\npacking_fraction = 0.1\n[run]\n"
+                        "dt = 1e-4\nsteps = 1\n")
+                .shape.length,
+            0.0);  // a sphere's aspect ratio
+}
+
+// Every key, given a value of the wrong kind by --set, is reported with its name and value.
+TEST(SceneKeys, EveryKeyRejectsAWrongValueByName) {
+  for (const auto &spec : scene_keys()) {
+    const std::string key = std::string(spec.section) + "." + std::string(spec.name);
+    // The file keys are read only for a file start, the lattice only for a lattice start.
+    std::vector<std::string> set = {"init.configuration=file", "init.file=x.h5"};
+    if (spec.name == "lattice") set.clear();
+    // A string key takes any text, so give it an empty one (the shape and the choices: a name
+    // that is none of theirs); every other key gets a table.
+    const bool string_key = is_string_key(spec);
+    const std::string value = string_key ? "\"\"" : "{a = 1}";
+    set.push_back(key + "=" + value);
+    const auto problems = problems_of(kScene, set);
+    EXPECT_TRUE(contains(problems, key + " = " + (string_key ? "\"\"" : "{...}") + ": "))
+        << key << "\n"
+        << lines(problems);
+  }
+}
+
+}  // namespace
+}  // namespace hardrod
