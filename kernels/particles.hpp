@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -42,7 +43,8 @@ struct Particles {
   std::vector<double> vx, vy, vz;  // linear velocity
   std::vector<double> wx, wy, wz;  // angular velocity, perpendicular to the axis
   // Upper bound on how far any point of the body has moved since the neighbour list was
-  // built (translation plus half length times rotation). Drives the lazy pair checks.
+  // built (translation plus half length times rotation). Decides when a pair needs a
+  // narrow-phase test and when the list expires.
   std::vector<double> motion_bound;
   // Constants of each body's free flight (refresh_motion, integrator.hpp): how much its
   // motion bound grows per half step, and the two series of its half step's rotation.
@@ -52,26 +54,11 @@ struct Particles {
   std::vector<double> grow, turn_sinc, turn_vers;
 
   std::size_t size() const { return id.size(); }
-  void resize(std::size_t n) {
-    for (auto *v : {&x, &y, &z, &ex, &ey, &ez, &vx, &vy, &vz, &wx, &wy, &wz, &motion_bound, &grow,
-                    &turn_sinc, &turn_vers})
-      v->resize(n, 0.0);
-    id.resize(n, 0);
-  }
-
+  // New bodies are zeros.
+  void resize(std::size_t n);
   // Reorder the first order.size() bodies: body k of the result is body order[k] of before.
   // Used to sort bodies by cell so that neighbours are neighbours in memory too.
-  void permute(const std::vector<std::uint32_t> &order) {
-    std::vector<double> scratch(order.size());
-    for (auto *v : {&x, &y, &z, &ex, &ey, &ez, &vx, &vy, &vz, &wx, &wy, &wz, &motion_bound, &grow,
-                    &turn_sinc, &turn_vers}) {
-      for (std::size_t k = 0; k < order.size(); ++k) scratch[k] = (*v)[order[k]];
-      std::copy(scratch.begin(), scratch.end(), v->begin());
-    }
-    std::vector<std::int64_t> ids(order.size());
-    for (std::size_t k = 0; k < order.size(); ++k) ids[k] = id[order[k]];
-    std::copy(ids.begin(), ids.end(), id.begin());
-  }
+  void permute(const std::vector<std::uint32_t> &order);
 
   Vec3 position(std::size_t i) const { return {x[i], y[i], z[i]}; }
   Vec3 axis(std::size_t i) const { return {ex[i], ey[i], ez[i]}; }
@@ -82,5 +69,40 @@ struct Particles {
   void set_velocity(std::size_t i, const Vec3 &v) { vx[i] = v.x, vy[i] = v.y, vz[i] = v.z; }
   void set_angular_velocity(std::size_t i, const Vec3 &w) { wx[i] = w.x, wy[i] = w.y, wz[i] = w.z; }
 };
+
+// One array of doubles of Particles.
+using BodyField = std::vector<double> Particles::*;
+
+// A body's state besides its id: the twelve doubles that define it, in the one order used
+// wherever a body is stored, sent, hashed or compared (runtime/body_wire.hpp, checkpoint
+// rows, the state checksum, Simulation::verify_bodies). Changing the order changes the
+// checksum of every run.
+inline constexpr std::array<BodyField, 12> kStateFields = {
+    &Particles::x,  &Particles::y,  &Particles::z,  &Particles::ex, &Particles::ey, &Particles::ez,
+    &Particles::vx, &Particles::vy, &Particles::vz, &Particles::wx, &Particles::wy, &Particles::wz};
+
+// Derived from the state and recomputed (the motion bound at every rebuild, the motion
+// constants when a velocity changes): never stored or sent.
+inline constexpr std::array<BodyField, 4> kDerivedFields = {
+    &Particles::motion_bound, &Particles::grow, &Particles::turn_sinc, &Particles::turn_vers};
+
+inline void Particles::resize(std::size_t n) {
+  for (BodyField f : kStateFields) (this->*f).resize(n, 0.0);
+  for (BodyField f : kDerivedFields) (this->*f).resize(n, 0.0);
+  id.resize(n, 0);
+}
+
+inline void Particles::permute(const std::vector<std::uint32_t> &order) {
+  std::vector<double> scratch(order.size());
+  const auto reorder = [&](std::vector<double> &v) {
+    for (std::size_t k = 0; k < order.size(); ++k) scratch[k] = v[order[k]];
+    std::copy(scratch.begin(), scratch.end(), v.begin());
+  };
+  for (BodyField f : kStateFields) reorder(this->*f);
+  for (BodyField f : kDerivedFields) reorder(this->*f);
+  std::vector<std::int64_t> ids(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) ids[k] = id[order[k]];
+  std::copy(ids.begin(), ids.end(), id.begin());
+}
 
 }  // namespace hardrod

@@ -28,7 +28,7 @@ const char *balance_mode_name(BalanceMode mode) {
 }
 
 std::vector<double> balanced_cuts(const std::vector<double> &cuts, const std::vector<double> &loads,
-                                  double min_width, double max_shift, double damping) {
+                                  double min_width) {
   const std::size_t n = loads.size();
   if (cuts.size() != n + 1 || n < 2) return cuts;
   double total = 0.0;
@@ -51,12 +51,8 @@ std::vector<double> balanced_cuts(const std::vector<double> &cuts, const std::ve
     const double f = loads[s] > 0.0 ? std::clamp((want - before) / loads[s], 0.0, 1.0) : 0.5;
     target[k] = cuts[s] + f * width;
   }
-  // The largest step towards the target within the limits: widths are linear in the step.
-  double step = std::clamp(damping, 0.0, 1.0);
-  for (std::size_t k = 1; k < n; ++k) {
-    const double shift = std::fabs(target[k] - cuts[k]);
-    if (shift > max_shift) step = std::min(step, max_shift / shift);
-  }
+  // The largest step towards the target that keeps the widths: they are linear in the step.
+  double step = 1.0;
   for (std::size_t k = 0; k < n; ++k) {
     const double w_old = cuts[k + 1] - cuts[k];
     const double w_new = target[k + 1] - target[k];

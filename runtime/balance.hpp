@@ -33,11 +33,12 @@ const char *balance_mode_name(BalanceMode mode);
 
 // New cuts along one axis (cuts.size() = slabs + 1, from 0 to the side). The load of slab s
 // is taken as spread evenly over [cuts[s], cuts[s + 1]); the returned cuts give every slab
-// the same share. Each cut moves `damping` (0..1] of the way there and at most `max_shift`;
-// no slab gets thinner than `min_width` (the largest step towards the target that keeps
-// every slab at least that wide; cuts that already violate it are left alone). Loads that
-// are not finite and positive leave the cuts unchanged.
+// the same share, except that no slab gets thinner than `min_width` (then the cuts take the
+// largest step towards that target that keeps every slab at least that wide; cuts that
+// already violate it are left alone). Any shift is allowed: the rebuild moves the cuts in
+// stages (Simulation::take_new_cuts). Loads that are not finite and positive leave the cuts
+// unchanged.
 std::vector<double> balanced_cuts(const std::vector<double> &cuts, const std::vector<double> &loads,
-                                  double min_width, double max_shift, double damping = 1.0);
+                                  double min_width);
 
 }  // namespace hardrod

@@ -1,7 +1,8 @@
-// A body on the wire, between ranks (migration, shadows, gathers) and in a checkpoint's
-// rows: its id and the twelve doubles of its state (position, axis, velocity, angular
-// velocity). The motion bound restarts at 0 with every rebuild and the motion constants
-// are refreshed on arrival, so neither travels.
+// A body on the wire, between ranks (migration, shadows, gathers): its id and the twelve
+// doubles of its state (kStateFields, kernels/particles.hpp). The motion bound restarts at 0
+// with every rebuild and the motion constants are refreshed on arrival, so neither travels.
+// Not the wire of the spanning-cluster protocol (runtime/cluster_protocol.hpp), which sends
+// velocities and contacts only.
 #pragma once
 
 #include <fmt/format.h>
@@ -15,7 +16,8 @@
 
 namespace hardrod {
 
-inline constexpr std::size_t kBodyBytes = sizeof(std::int64_t) + 12 * sizeof(double);
+inline constexpr std::size_t kBodyBytes =
+    sizeof(std::int64_t) + kStateFields.size() * sizeof(double);
 
 inline void pack_body(std::vector<char> &buf, const Particles &p, std::size_t i) {
   const std::size_t at = buf.size();
@@ -23,9 +25,8 @@ inline void pack_body(std::vector<char> &buf, const Particles &p, std::size_t i)
   char *out = buf.data() + at;
   std::memcpy(out, &p.id[i], sizeof(std::int64_t));
   out += sizeof(std::int64_t);
-  for (const auto *f :
-       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
-    std::memcpy(out, &(*f)[i], sizeof(double));
+  for (BodyField f : kStateFields) {
+    std::memcpy(out, &(p.*f)[i], sizeof(double));
     out += sizeof(double);
   }
 }
@@ -39,9 +40,8 @@ inline void unpack_body_at(const std::vector<char> &buf, std::size_t &off, Parti
   const char *in = buf.data() + off;
   std::memcpy(&p.id[i], in, sizeof(std::int64_t));
   in += sizeof(std::int64_t);
-  for (auto *f :
-       {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
-    std::memcpy(&(*f)[i], in, sizeof(double));
+  for (BodyField f : kStateFields) {
+    std::memcpy(&(p.*f)[i], in, sizeof(double));
     in += sizeof(double);
   }
   p.motion_bound[i] = 0.0;

@@ -23,7 +23,9 @@ namespace fs = std::filesystem;
 
 constexpr hsize_t kUserBlock = 512;
 constexpr const char *kFormat = "hardrod checkpoint";
+// The datasets of /bodies besides the ids: three columns each, kStateFields three by three.
 const std::array<const char *, 4> kVectors = {"position", "axis", "velocity", "angular_velocity"};
+static_assert(3 * kVectors.size() == kStateFields.size());
 
 // 64-bit hash of a byte range, eight bytes at a time (a bit flip anywhere changes it).
 std::uint64_t content_hash(const std::vector<char> &bytes, std::size_t from) {
@@ -203,16 +205,11 @@ void write_hdf5(Communicator &comm, const fs::path &tmp, const Particles &owned,
     }
     const hsize_t n = static_cast<hsize_t>(c.n);
     w.rows(bodies, "id", H5T_NATIVE_LLONG, n, 1, ids, id_values.data());
-    const std::array<std::array<const std::vector<double> *, 3>, 4> fields = {{
-        {&owned.x, &owned.y, &owned.z},
-        {&owned.ex, &owned.ey, &owned.ez},
-        {&owned.vx, &owned.vy, &owned.vz},
-        {&owned.wx, &owned.wy, &owned.wz},
-    }};
     std::vector<double> buffer(3 * count);
     for (std::size_t e = 0; e < kVectors.size(); ++e) {
       for (std::size_t k = 0; k < count; ++k)
-        for (std::size_t a = 0; a < 3; ++a) buffer[3 * k + a] = (*fields[e][a])[order[k]];
+        for (std::size_t a = 0; a < 3; ++a)
+          buffer[3 * k + a] = (owned.*kStateFields[3 * e + a])[order[k]];
       w.rows(bodies, kVectors[e], H5T_NATIVE_DOUBLE, n, 3, ids, buffer.data());
     }
   }  // collective close: the file is complete on disk
@@ -307,9 +304,7 @@ std::uint64_t body_hash(const Particles &p) {
   };
   for (std::size_t i = 0; i < p.size(); ++i) {
     feed(&p.id[i], sizeof(std::int64_t));
-    for (const auto *field :
-         {&p.x, &p.y, &p.z, &p.ex, &p.ey, &p.ez, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz})
-      feed(&(*field)[i], sizeof(double));
+    for (BodyField f : kStateFields) feed(&(p.*f)[i], sizeof(double));
   }
   return hash;
 }
@@ -457,12 +452,6 @@ Checkpoint read_checkpoint(const fs::path &path) {
   Particles &p = c.bodies;
   p.resize(static_cast<std::size_t>(c.n));
   for (std::size_t k = 0; k < ids.size(); ++k) p.id[k] = ids[k];
-  const std::array<std::array<std::vector<double> *, 3>, 4> fields = {{
-      {&p.x, &p.y, &p.z},
-      {&p.ex, &p.ey, &p.ez},
-      {&p.vx, &p.vy, &p.vz},
-      {&p.wx, &p.wy, &p.wz},
-  }};
   for (std::size_t e = 0; e < kVectors.size(); ++e) {
     const std::string name = std::string("bodies/") + kVectors[e];
     const auto v = r.numbers<double>(name.c_str(), H5T_NATIVE_DOUBLE, {n, 3});
@@ -470,7 +459,7 @@ Checkpoint read_checkpoint(const fs::path &path) {
       for (std::size_t a = 0; a < 3; ++a) {
         const double x = v[3 * i + a];
         if (!std::isfinite(x)) r.fail(fmt::format("{}[{}][{}] = {}: not finite", name, i, a, x));
-        (*fields[e][a])[i] = x;
+        (p.*kStateFields[3 * e + a])[i] = x;
       }
   }
   for (std::size_t i = 0; i < p.size(); ++i) {

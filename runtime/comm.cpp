@@ -55,7 +55,6 @@ std::vector<std::vector<char>> Communicator::exchange(
     const std::string &name, const std::vector<int> &partners,
     const std::vector<std::vector<char>> &outgoing) {
   TrafficCounter &t = traffic_[name];
-  ++t.calls;
   std::vector<MPI_Request> requests(partners.size());
   for (std::size_t k = 0; k < partners.size(); ++k) {
     MPI_Isend(outgoing[k].data(), static_cast<int>(outgoing[k].size()), MPI_BYTE, partners[k],
@@ -81,7 +80,6 @@ std::vector<ExactSum> Communicator::sum(const std::string &name,
                                         const std::vector<ExactSum> &local) {
   if (size_ == 1) return local;
   TrafficCounter &t = traffic_[name];
-  ++t.calls;
   // Each ExactSum travels as its two 64-bit halves plus the poison flag; the halves are
   // added as a 128-bit integer on every rank after an allgather, in rank order (integer
   // addition: the order does not matter anyway).
@@ -116,7 +114,6 @@ ExactSum Communicator::sum(const std::string &name, const ExactSum &local) {
 long long Communicator::sum(const std::string &name, long long local) {
   if (size_ == 1) return local;
   TrafficCounter &t = traffic_[name];
-  ++t.calls;
   long long out = 0;
   MPI_Allreduce(&local, &out, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
   t.messages += size_ - 1;
@@ -127,7 +124,6 @@ long long Communicator::sum(const std::string &name, long long local) {
 std::vector<double> Communicator::max(const std::string &name, const std::vector<double> &local) {
   if (size_ == 1) return local;
   TrafficCounter &t = traffic_[name];
-  ++t.calls;
   std::vector<double> out(local.size());
   MPI_Allreduce(local.data(), out.data(), static_cast<int>(local.size()), MPI_DOUBLE, MPI_MAX,
                 MPI_COMM_WORLD);
@@ -139,7 +135,6 @@ std::vector<double> Communicator::max(const std::string &name, const std::vector
 std::vector<char> Communicator::gather(const std::string &name, const std::vector<char> &local) {
   if (size_ == 1) return local;
   TrafficCounter &t = traffic_[name];
-  ++t.calls;
   int mine = static_cast<int>(local.size());
   std::vector<int> counts(static_cast<std::size_t>(size_)), displs(static_cast<std::size_t>(size_));
   MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
@@ -162,7 +157,6 @@ std::vector<char> Communicator::gather(const std::string &name, const std::vecto
 void Communicator::broadcast(const std::string &name, std::vector<char> &data) {
   if (size_ == 1) return;
   TrafficCounter &t = traffic_[name];
-  ++t.calls;
   MPI_Bcast(data.data(), static_cast<int>(data.size()), MPI_BYTE, 0, MPI_COMM_WORLD);
   t.messages += 1;
   t.bytes += static_cast<long long>(data.size());

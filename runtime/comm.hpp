@@ -19,7 +19,6 @@ namespace hardrod {
 struct TrafficCounter {
   long long messages = 0;
   long long bytes = 0;
-  long long calls = 0;
 };
 
 class Communicator {

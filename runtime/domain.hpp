@@ -8,6 +8,7 @@
 // share a body or a contact cluster.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <string>
 #include <vector>
@@ -39,6 +40,12 @@ class Domain {
   const Cuts &cuts() const { return cuts_; }
   const Box &box() const { return box_; }
   const std::vector<int> &partners() const { return partners_; }
+  // Position of rank r in partners() (sorted), where messages to it go; partners().size()
+  // or a rank other than r there when r is not a partner.
+  std::size_t partner_slot(int r) const {
+    return static_cast<std::size_t>(std::lower_bound(partners_.begin(), partners_.end(), r) -
+                                    partners_.begin());
+  }
 
   // Rank whose subdomain contains the (folded) centre p.
   int owner_of(const Vec3 &p) const;

@@ -1,12 +1,26 @@
-// The state of a run and one time step (SPEC.md sections 3 and 7). `step()` reads like the
-// algorithm: half step, agree on rebuilds (one max-reduction), redistribute bodies and
-// rebuild the pair list if it expired, detect, resolve (with one exchange of contact
-// records when bodies of a cluster live on several ranks; a second, of results, on more
-// than two ranks), half step,
-// thermostat. Each phase is a named, timed call into kernels/; every communication step
-// is a named, counted call into runtime/comm. One rank runs the same code with no
-// partners. Physics that breaks (overlap beyond run.max_overlap, NaN) throws PhysicsError
-// naming the step and dt, on every rank.
+// The state of a run and one time step (SPEC.md sections 3 and 7). One time step, the
+// phases numbered once here for every file (advance(), runtime/simulation.cpp):
+//   1. first half: free flight of the owned bodies and shadows to the midpoint (to_midpoint,
+//      kernels/integrator.hpp), with phase 2 in the same pass when the pair list keeps watches
+//   2. detect: contacts at the midpoint (detect, kernels/contact_detection.hpp)
+//   3. agree: the step's one max-reduction: a pair list expired, a contact across a rank
+//      boundary, problems, a stop (agree)
+//   4. rebuild when due: new cuts, migration, shadows, the pair list (rebuild,
+//      runtime/decomposition.cpp), then phase 2 again
+//   5. resolve: elastic impulses (resolve), (a) of the clusters this rank holds in full
+//      (kernels/contact_resolution.hpp), (b) of those across ranks, with one exchange of
+//      contact records and, on more than two ranks, one of results (resolve_across_ranks,
+//      runtime/spanning_clusters.cpp and runtime/cluster_protocol.hpp)
+//   6. second half: free flight to the end of the step, in one pass with the next step's
+//      phase 1 where nothing acts between them (second_half, to_midpoint(2))
+//   7. when due: the rotor constraints and the thermostat (restore_constraints,
+//      apply_thermostat)
+//   8. when due: the load balance check (check_balance, runtime/balance_check.cpp)
+// Each phase is a named, timed call; every communication step is a named, counted call into
+// runtime/comm. One rank runs the same code with no partners. Physics that breaks (overlap
+// beyond run.max_overlap, NaN) throws PhysicsError naming the step and dt, on every rank.
+// Observables are in runtime/observables.cpp, the checksum and checks in
+// runtime/diagnostics.cpp.
 #pragma once
 
 #include <array>
@@ -26,6 +40,7 @@
 #include "kernels/particles.hpp"
 #include "perf/region_timer.hpp"
 #include "runtime/balance.hpp"
+#include "runtime/cluster_protocol.hpp"
 #include "runtime/comm.hpp"
 #include "runtime/domain.hpp"
 #include "runtime/scene.hpp"
@@ -192,28 +207,56 @@ class Simulation {
     bool boundary = false;  // some rank has a contact across a rank boundary
   };
 
+  // Construction (simulation.cpp, decomposition.cpp, balance_check.cpp).
   void configure(Particles all, ParallelOptions parallel);
-  Agreement agree(double largest_bound, bool boundary);
-  void midpoint(const MidpointDetection &reached);
-  MidpointDetection to_midpoint(int halves);
-  void note_detection(const DetectionStats &detected);
+  void decompose(const Particles &all, const ParallelOptions &parallel);
+  Cuts starting_cuts(const Particles &all) const;
+  void keep_owned(const Particles &all);
   // Bodies [0, advanced()) are moved every step: the owned ones, and the shadows the pair list
   // keeps (before the first build there are no shadows).
   std::size_t advanced() const { return list_.builds == 0 ? owned_ : list_.active; }
-  void rebuild();
-  DetectionStats detect();
-  bool touches_boundary() const;
-  void migrate();
-  void redistribute();
-  // The clusters with local[c] == 0 (a body other ranks hold): put together from every
-  // owner's contacts and resolved (see simulation.cpp). Collective over partners.
+
+  // The phases of a step (simulation.cpp unless noted).
+  MidpointDetection to_midpoint(int halves);        // 1 (and 2), or 6 and the next 1
+  void midpoint(const MidpointDetection &reached);  // 2-5
+  DetectionStats detect();                          // 2
+  void note_detection(const DetectionStats &detected);
+  bool touches_boundary() const;                         // decomposition.cpp
+  Agreement agree(double largest_bound, bool boundary);  // 3
+  void rebuild();                                        // 4, decomposition.cpp
+  void take_new_cuts();                                  // decomposition.cpp
+  void migrate();                                        // decomposition.cpp
+  void redistribute();                                   // decomposition.cpp
+  void index_bodies();                                   // decomposition.cpp
+  ResolutionStats resolve(const Agreement &agreed, std::vector<char> &counted);  // 5
+  ResolutionStats resolve_on_ranks(const ContactClusters &clusters, bool exchange);
+  void tally(const DetectionStats &detected, const ResolutionStats &resolved,
+             const std::vector<char> &counted);
+  void second_half();          // 6
+  void restore_constraints();  // 7
+  void apply_thermostat();     // 7
+  // 8, balance_check.cpp. Collective, every balance_.interval steps: compares the ranks'
+  // loads and, past the threshold, sets new cuts for the next rebuild (forcing one when that
+  // pays).
+  void check_balance();
+
+  // 5b, spanning_clusters.cpp: the clusters with local[c] == 0 (a body other ranks hold),
+  // put together from every owner's contacts and resolved. Collective over partners.
   ResolutionStats resolve_across_ranks(const ContactClusters &clusters,
                                        const std::vector<char> &local);
-  void apply_thermostat();
-  // Collective, every balance_.interval steps: compares the ranks' loads and, past the
-  // threshold, sets new cuts for the next rebuild (forcing one when that pays).
-  void check_balance();
-  void index_bodies();
+  ClusterRecords exchange_records(const ContactClusters &clusters, const std::vector<char> &local);
+  std::vector<char> clusters_to_resolve(const ClusterRecords &records, const RecordClusters &rc,
+                                        const std::vector<std::size_t> &where) const;
+  void note_spanning(const ClusterRecords &records, const RecordClusters &rc,
+                     const std::vector<char> &take, const std::vector<char> &owned);
+  void exchange_results(const ClusterRecords &records, const RecordClusters &rc,
+                        const std::vector<char> &take, const std::vector<std::uint32_t> &slot,
+                        const std::vector<Contact> &solved);
+  void note_unresolved(const ContactClusters &clusters, const std::vector<char> &local);
+  void add_targets(std::int64_t id, std::vector<int> &targets) const;
+  void settle_body(std::size_t i, const double (&motion)[6]);
+  void set_impulse(const Contact &solved);
+
   void report_problems(const std::vector<double> &flags);
   // Sums the counters and takes the maxima of `t` over ranks (steps and exact sums untouched).
   void sum_counts_over_ranks(IntervalTotals &t, const char *name);
@@ -248,7 +291,7 @@ class Simulation {
   BalanceOptions balance_;
   BalanceRecord balanced_;
   SpanningRecord spanning_;
-  // Scratch of resolve_across_ranks, kept between steps (its allocations were half its time):
+  // Scratch of resolve_across_ranks, kept between steps so that a step allocates nothing:
   // by local index, whether a body got its velocities this step (all 0 between calls); the
   // bodies of the clusters it resolves; its outgoing messages.
   std::vector<char> settled_;
