@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <stdexcept>
 #include <utility>
@@ -492,59 +491,6 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
       (m == 1 ? result.E13 : result.E23)
           .push_back({p.x, p.y, p.E, p.E * p.rel(v[size_t(m - 1)], p.E), (long long)p.n});
   return result;
-}
-
-nlohmann::json to_json(const FrankResult &r) {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-  auto est = [&](const FrankEstimate &e) {
-    return nlohmann::json{{"value", num(e.value)},
-                          {"error", num(e.error)},
-                          {"fit_error", num(e.fit_error)},
-                          {"spread", num(e.spread)}};
-  };
-  auto model = [&](const FrankModelFit &f) {
-    return nlohmann::json{{"K1", est(f.K1)},
-                          {"K2", est(f.K2)},
-                          {"K3", est(f.K3)},
-                          {"K3_from_E13", est(f.K3_13)},
-                          {"K3_from_E23", est(f.K3_23)},
-                          {"bins_E13", f.bins_13},
-                          {"bins_E23", f.bins_23},
-                          {"chi2_per_dof_E13", num(f.chi2_13)},
-                          {"chi2_per_dof_E23", num(f.chi2_23)},
-                          {"chi2_dof", num(f.chi2_dof())},
-                          {"background_E13", est(f.background_13)},
-                          {"background_E23", est(f.background_23)},
-                          {"terms_E13", f.terms_13},
-                          {"terms_E23", f.terms_23}};
-  };
-  auto table = [&](const std::vector<FrankBinE> &bins) {
-    nlohmann::json t = nlohmann::json::array();
-    for (const FrankBinE &b : bins) t.push_back({b.k1sq, b.k3sq, num(b.E), num(b.error), b.count});
-    return t;
-  };
-  auto variance = [&](const FrankVarianceModel &v) {
-    return nlohmann::json{{"g0", num(v.g0)}, {"g1", num(v.g1)}, {"bins", v.bins}};
-  };
-  const FrankFitOptions &o = r.options;
-  return {{"planar", model(r.planar)},
-          {"cubic", model(r.cubic)},
-          {"background", model(r.background)},
-          {"ranges",
-           {{"planar_max_k2", o.planar_max_k2},
-            {"cubic_max_k1sq", o.cubic_max_k1sq},
-            {"cubic_max_k3sq", o.cubic_max_k3sq}}},
-          {"variance_model", {{"E13", variance(r.variance_13)}, {"E23", variance(r.variance_23)}}},
-          {"mean_S2", num(r.mean_S2)},
-          {"kT", o.kT},
-          {"self_term_subtracted", o.subtract_self_term},
-          {"samples", r.samples},
-          {"runs", r.runs},
-          {"replicas", r.replicas},
-          {"error_method", r.error_method},
-          {"bin_columns", {"k1sq", "k3sq", "E", "error", "count"}},
-          {"E13", table(r.E13)},
-          {"E23", table(r.E23)}};
 }
 
 }  // namespace hardrod
