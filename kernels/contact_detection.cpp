@@ -4,12 +4,10 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
 
-#include "kernels/integrator.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
@@ -200,44 +198,6 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 #pragma omp parallel num_threads(nthreads)
   detect_watched_in_team(p, box, shape, list, shared);
   return finish_watched_detection(p, box, shape, list, shared, contacts);
-}
-
-MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Shape &shape,
-                                      double half_dt, int halves, NeighborList &list,
-                                      const Box &box, std::vector<Contact> &contacts) {
-  const long n = static_cast<long>(count);
-  const int nthreads = team_threads(n);
-  // The watches are kept for exactly these bodies: detect in the same region.
-  const bool watched =
-      list.builds > 0 && list.watching && list.active == count && list.bodies == p.size();
-  MidpointDetection out;
-  std::vector<double> largest(static_cast<std::size_t>(nthreads), 0.0);
-  WatchedDetection shared(watched ? nthreads : 0);
-  bool expired = true;
-  const auto t0 = std::chrono::steady_clock::now();
-  std::chrono::steady_clock::time_point t1;
-#pragma omp parallel num_threads(nthreads)
-  {
-    const int tid = omp_get_thread_num();
-    const auto [lo, hi] = team_block(n, tid, omp_get_num_threads());
-    largest[tid] = drift_block(p, lo, hi, shape, half_dt, halves);
-#pragma omp barrier
-#pragma omp master
-    t1 = std::chrono::steady_clock::now();
-    // Every thread reads the same maxima and decides alike.
-    double all = 0.0;
-    for (int t = 0; t < omp_get_num_threads(); ++t) all = std::max(all, largest[t]);
-    const bool expired_here = neighbor_list_expired(list, all, list.bodies);
-    if (tid == 0) expired = expired_here;
-    if (watched && !expired_here) detect_watched_in_team(p, box, shape, list, shared);
-  }
-  out.largest_bound = *std::max_element(largest.begin(), largest.end());
-  out.drift_nanoseconds = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
-  if (watched && !expired) {
-    out.detected = true;
-    out.stats = finish_watched_detection(p, box, shape, list, shared, contacts);
-  }
-  return out;
 }
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
