@@ -65,6 +65,36 @@ void measure(const Particles &p, const Box &box, const Vec3 &inverse, const Shap
   pair.recheck_at = moved + (d - shape.diameter) - kDistanceSafetyMargin;
 }
 
+// Pass 1 of the watched detection over bodies [lo, hi): flag the bodies whose motion bound
+// reached their watch (a vector compare) and list them in `raised`, skipping eight clear
+// flags at a time. Returns the number of pair ends of the listed bodies.
+inline long flag_block(long lo, long hi, const double *bound, const double *watch,
+                       std::uint8_t *flagged, const std::uint32_t *start,
+                       std::vector<std::uint32_t> &raised) {
+  long ends = 0;
+#pragma omp simd
+  for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
+  for (long w = lo; w < hi; w += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, flagged + w, sizeof word);
+    if (word == 0) continue;
+    for (long i = w; i < std::min(hi, w + 8); ++i)
+      if (flagged[i]) {
+        raised.push_back(static_cast<std::uint32_t>(i));
+        ends += start[i + 1] - start[i];
+      }
+  }
+  return ends;
+}
+
+// Body i's new watch: its smallest allowance over its pairs (+infinity without pairs).
+inline double smallest_allowance(const NeighborList &list, std::uint32_t i) {
+  double w = std::numeric_limits<double>::infinity();
+  for (std::uint32_t a = list.pairs_start[i]; a < list.pairs_start[i + 1]; ++a)
+    w = std::min(w, list.pairs[list.pair_index[a]].allowance(i));
+  return w;
+}
+
 void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact> &contacts) {
   contacts.clear();
   for (auto &f : found) contacts.insert(contacts.end(), f.begin(), f.end());
@@ -95,22 +125,10 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
   std::vector<Contact> &mine = shared.found[tid];
   mine.clear();
   std::vector<std::uint32_t> raised;  // this block's flagged bodies
-  long my_ends = 0;
   long long tests = 0;
   double max_depth = 0.0;
 
-#pragma omp simd
-  for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
-  for (long w = lo; w < hi; w += 8) {
-    std::uint64_t word;
-    std::memcpy(&word, flagged + w, sizeof word);
-    if (word == 0) continue;
-    for (long i = w; i < std::min(hi, w + 8); ++i)
-      if (flagged[i]) {
-        raised.push_back(static_cast<std::uint32_t>(i));
-        my_ends += start[i + 1] - start[i];
-      }
-  }
+  const long my_ends = flag_block(lo, hi, bound, watch, flagged, start, raised);
   shared.ends[tid] = my_ends;  // once: the threads' entries share a cache line
 #pragma omp barrier
   // Every thread takes the same decision from the same sum (no further barrier).
@@ -150,12 +168,7 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
     }
   }
 #pragma omp barrier
-  for (const std::uint32_t i : raised) {
-    double w = std::numeric_limits<double>::infinity();
-    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a)
-      w = std::min(w, pairs[index[a]].allowance(i));
-    watch[i] = w;
-  }
+  for (const std::uint32_t i : raised) watch[i] = smallest_allowance(list, i);
   shared.tests[tid] = tests;
   shared.depth[tid] = max_depth;
 }
