@@ -4,12 +4,10 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
 
-#include "kernels/integrator.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
@@ -67,6 +65,36 @@ void measure(const Particles &p, const Box &box, const Vec3 &inverse, const Shap
   pair.recheck_at = moved + (d - shape.diameter) - kDistanceSafetyMargin;
 }
 
+// Pass 1 of the watched detection over bodies [lo, hi): flag the bodies whose motion bound
+// reached their watch (a vector compare) and list them in `raised`, skipping eight clear
+// flags at a time. Returns the number of pair ends of the listed bodies.
+inline long flag_block(long lo, long hi, const double *bound, const double *watch,
+                       std::uint8_t *flagged, const std::uint32_t *start,
+                       std::vector<std::uint32_t> &raised) {
+  long ends = 0;
+#pragma omp simd
+  for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
+  for (long w = lo; w < hi; w += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, flagged + w, sizeof word);
+    if (word == 0) continue;
+    for (long i = w; i < std::min(hi, w + 8); ++i)
+      if (flagged[i]) {
+        raised.push_back(static_cast<std::uint32_t>(i));
+        ends += start[i + 1] - start[i];
+      }
+  }
+  return ends;
+}
+
+// Body i's new watch: its smallest allowance over its pairs (+infinity without pairs).
+inline double smallest_allowance(const NeighborList &list, std::uint32_t i) {
+  double w = std::numeric_limits<double>::infinity();
+  for (std::uint32_t a = list.pairs_start[i]; a < list.pairs_start[i + 1]; ++a)
+    w = std::min(w, list.pairs[list.pair_index[a]].allowance(i));
+  return w;
+}
+
 void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact> &contacts) {
   contacts.clear();
   for (auto &f : found) contacts.insert(contacts.end(), f.begin(), f.end());
@@ -97,22 +125,10 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
   std::vector<Contact> &mine = shared.found[tid];
   mine.clear();
   std::vector<std::uint32_t> raised;  // this block's flagged bodies
-  long my_ends = 0;
   long long tests = 0;
   double max_depth = 0.0;
 
-#pragma omp simd
-  for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
-  for (long w = lo; w < hi; w += 8) {
-    std::uint64_t word;
-    std::memcpy(&word, flagged + w, sizeof word);
-    if (word == 0) continue;
-    for (long i = w; i < std::min(hi, w + 8); ++i)
-      if (flagged[i]) {
-        raised.push_back(static_cast<std::uint32_t>(i));
-        my_ends += start[i + 1] - start[i];
-      }
-  }
+  const long my_ends = flag_block(lo, hi, bound, watch, flagged, start, raised);
   shared.ends[tid] = my_ends;  // once: the threads' entries share a cache line
 #pragma omp barrier
   // Every thread takes the same decision from the same sum (no further barrier).
@@ -152,12 +168,7 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
     }
   }
 #pragma omp barrier
-  for (const std::uint32_t i : raised) {
-    double w = std::numeric_limits<double>::infinity();
-    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a)
-      w = std::min(w, pairs[index[a]].allowance(i));
-    watch[i] = w;
-  }
+  for (const std::uint32_t i : raised) watch[i] = smallest_allowance(list, i);
   shared.tests[tid] = tests;
   shared.depth[tid] = max_depth;
 }
@@ -200,44 +211,6 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 #pragma omp parallel num_threads(nthreads)
   detect_watched_in_team(p, box, shape, list, shared);
   return finish_watched_detection(p, box, shape, list, shared, contacts);
-}
-
-MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Shape &shape,
-                                      double half_dt, int halves, NeighborList &list,
-                                      const Box &box, std::vector<Contact> &contacts) {
-  const long n = static_cast<long>(count);
-  const int nthreads = team_threads(n);
-  // The watches are kept for exactly these bodies: detect in the same region.
-  const bool watched =
-      list.builds > 0 && list.watching && list.active == count && list.bodies == p.size();
-  MidpointDetection out;
-  std::vector<double> largest(static_cast<std::size_t>(nthreads), 0.0);
-  WatchedDetection shared(watched ? nthreads : 0);
-  bool expired = true;
-  const auto t0 = std::chrono::steady_clock::now();
-  std::chrono::steady_clock::time_point t1;
-#pragma omp parallel num_threads(nthreads)
-  {
-    const int tid = omp_get_thread_num();
-    const auto [lo, hi] = team_block(n, tid, omp_get_num_threads());
-    largest[tid] = drift_block(p, lo, hi, shape, half_dt, halves);
-#pragma omp barrier
-#pragma omp master
-    t1 = std::chrono::steady_clock::now();
-    // Every thread reads the same maxima and decides alike.
-    double all = 0.0;
-    for (int t = 0; t < omp_get_num_threads(); ++t) all = std::max(all, largest[t]);
-    const bool expired_here = neighbor_list_expired(list, all, list.bodies);
-    if (tid == 0) expired = expired_here;
-    if (watched && !expired_here) detect_watched_in_team(p, box, shape, list, shared);
-  }
-  out.largest_bound = *std::max_element(largest.begin(), largest.end());
-  out.drift_nanoseconds = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
-  if (watched && !expired) {
-    out.detected = true;
-    out.stats = finish_watched_detection(p, box, shape, list, shared, contacts);
-  }
-  return out;
 }
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,

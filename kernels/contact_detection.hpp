@@ -27,9 +27,10 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
                                NeighborList &list, std::vector<Contact> &contacts);
 
 // The watched detection's parts, for a team of threads that has other work in the same
-// parallel region: every thread of the team calls detect_watched_in_team (it has barriers),
-// then one thread calls finish_watched_detection, which merges the contacts (or, when too
-// many bodies were flagged, switches the list to the full pass and runs it).
+// parallel region (advance_to_midpoint, free_flight.hpp): every thread of the team calls
+// detect_watched_in_team (it has barriers), then one thread calls finish_watched_detection,
+// which merges the contacts (or, when too many bodies were flagged, switches the list to the
+// full pass and runs it).
 struct WatchedDetection {
   explicit WatchedDetection(int threads);
   std::vector<std::vector<Contact>> found;
@@ -43,19 +44,6 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
 DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
                                         NeighborList &list, WatchedDetection &shared,
                                         std::vector<Contact> &contacts);
-
-// Free flight to the midpoint (one or two half steps, as half_step and two_half_steps) and,
-// when the list keeps its watches for these bodies and these bounds do not expire it, the
-// detection there, in one parallel region: one fork and join per step instead of two.
-struct MidpointDetection {
-  double largest_bound = 0.0;
-  bool detected = false;  // else the caller detects (or rebuilds) itself
-  DetectionStats stats;
-  long long drift_nanoseconds = 0;  // of the whole call, the free flight
-};
-MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Shape &shape,
-                                      double half_dt, int halves, NeighborList &list,
-                                      const Box &box, std::vector<Contact> &contacts);
 
 // The reference: the same filter as a pass over every listed pair (how the watches must
 // behave, and what they save). It renews slacks but not allowances: a list it has used is

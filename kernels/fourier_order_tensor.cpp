@@ -8,9 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <limits>
-#include <nlohmann/json.hpp>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -455,91 +453,6 @@ long long FrankAccumulator::samples() const {
   long long s = 0;
   for (const FrankBlock &b : blocks_) s += b.samples;
   return s;
-}
-
-namespace {
-constexpr const char *kFormat = "hardrod.frank_accumulator";
-constexpr int kFormatVersion = 1;
-}  // namespace
-
-nlohmann::json FrankAccumulator::to_json() const {
-  nlohmann::json blocks = nlohmann::json::array();
-  for (const FrankBlock &b : blocks_) {
-    nlohmann::json bins = nlohmann::json::array();
-    for (const auto &[key, v] : b.bins)
-      bins.push_back({key.first, key.second, v.count, v.k1sq, v.k3sq, v.k1sq_sq, v.k1sq_k3sq,
-                      v.k3sq_sq, v.q13, v.q13sq, v.q23, v.q23sq, v.self13, v.self23});
-    blocks.push_back({{"samples", b.samples}, {"sum_S2", b.sum_S2}, {"bins", std::move(bins)}});
-  }
-  return {{"format", kFormat},
-          {"version", kFormatVersion},
-          {"box", {box_.length.x, box_.length.y, box_.length.z}},
-          {"bodies", bodies_},
-          {"kmax", kmax_},
-          {"bin_width", config_.bin_width},
-          {"samples_per_block", config_.samples_per_block},
-          {"max_blocks", config_.max_blocks},
-          {"bin_columns",
-           {"i1", "i3", "count", "k1sq", "k3sq", "k1sq_sq", "k1sq_k3sq", "k3sq_sq", "q13", "q13sq",
-            "q23", "q23sq", "self13", "self23"}},
-          {"blocks", std::move(blocks)}};
-}
-
-FrankAccumulator FrankAccumulator::from_json(const nlohmann::json &j) {
-  try {
-    if (j.at("format").get<std::string>() != kFormat ||
-        j.at("version").get<int>() != kFormatVersion)
-      throw std::invalid_argument("not a version-1 hardrod.frank_accumulator");
-    const auto &bl = j.at("box");
-    FrankAccumulatorConfig config;
-    config.bin_width = j.at("bin_width").get<double>();
-    config.samples_per_block = j.at("samples_per_block").get<long long>();
-    config.max_blocks = j.at("max_blocks").get<int>();
-    FrankAccumulator acc(
-        Box{{bl.at(0).get<double>(), bl.at(1).get<double>(), bl.at(2).get<double>()}},
-        j.at("bodies").get<long long>(), j.at("kmax").get<int>(), config);
-    for (const auto &jb : j.at("blocks")) {
-      FrankBlock b;
-      b.samples = jb.at("samples").get<long long>();
-      b.sum_S2 = jb.at("sum_S2").get<double>();
-      for (const auto &row : jb.at("bins")) {
-        if (row.size() != 14) throw std::invalid_argument("a bin row needs 14 columns");
-        FrankBin v;
-        v.count = row[2].get<long long>();
-        v.k1sq = row[3].get<double>(), v.k3sq = row[4].get<double>();
-        v.k1sq_sq = row[5].get<double>(), v.k1sq_k3sq = row[6].get<double>();
-        v.k3sq_sq = row[7].get<double>();
-        v.q13 = row[8].get<double>(), v.q13sq = row[9].get<double>();
-        v.q23 = row[10].get<double>(), v.q23sq = row[11].get<double>();
-        v.self13 = row[12].get<double>(), v.self23 = row[13].get<double>();
-        b.bins[{row[0].get<int>(), row[1].get<int>()}] = v;
-      }
-      acc.blocks_.push_back(std::move(b));
-    }
-    return acc;
-  } catch (const nlohmann::json::exception &e) {
-    throw std::invalid_argument(std::string("FrankAccumulator::from_json: ") + e.what());
-  } catch (const std::invalid_argument &e) {
-    throw std::invalid_argument(std::string("FrankAccumulator::from_json: ") + e.what());
-  }
-}
-
-void FrankAccumulator::save(const std::string &path) const {
-  std::ofstream out(path);
-  out << to_json().dump() << '\n';
-  if (!out) throw std::runtime_error("FrankAccumulator::save: cannot write " + path);
-}
-
-FrankAccumulator FrankAccumulator::load(const std::string &path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("FrankAccumulator::load: cannot read " + path);
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception &e) {
-    throw std::invalid_argument("FrankAccumulator::load: " + path + ": " + e.what());
-  }
-  return from_json(j);
 }
 
 }  // namespace hardrod

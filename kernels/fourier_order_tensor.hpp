@@ -4,14 +4,13 @@
 // 1813 (1988); seed paper, "Frank elastic constants"). Reads x, y, z, ex, ey, ez of bodies
 // [0, count). Threading: OpenMP over particle blocks whose bounds depend on the body count
 // only, partials merged in block order: the same bits for any thread count (SPEC.md 7).
+// No files or JSON here: the accumulator's file, frank.json, is runtime/frank_io.hpp's.
 #pragma once
 
 #include <array>
 #include <complex>
 #include <cstddef>
 #include <map>
-#include <nlohmann/json_fwd.hpp>
-#include <string>
 #include <utility>
 #include <vector>
 
@@ -122,10 +121,9 @@ class FrankAccumulator {
   int kmax() const { return kmax_; }
   const FrankAccumulatorConfig &config() const { return config_; }
 
-  nlohmann::json to_json() const;
-  static FrankAccumulator from_json(const nlohmann::json &j);  // throws on malformed input
-  void save(const std::string &path) const;                    // to_json().dump() to a file
-  static FrankAccumulator load(const std::string &path);
+  // A block as saved, appended without merging: for the reader of a saved accumulator
+  // (runtime/frank_io.hpp), which restores the blocks in their order.
+  void restore_block(FrankBlock block) { blocks_.push_back(std::move(block)); }
 
  private:
   void compact();  // merge neighbouring blocks pairwise

@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <stdexcept>
 #include <utility>
@@ -234,6 +233,65 @@ struct Evaluator {
   }
 };
 
+// The weighted least-squares problem of one fit: chi^2 = sum_b ((target_b - E(pt_b)) /
+// sigma_b)^2 over the points, with its Jacobian and residuals when asked.
+struct LeastSquares {
+  const std::vector<Point> &pts;
+  const Evaluator &eval;
+  Eigen::Index np;  // parameters
+  Eigen::VectorXd sigma, target;
+
+  double chi2(const Eigen::VectorXd &q, Eigen::MatrixXd *J, Eigen::VectorXd *r) const {
+    double sum = 0.0, dx, dy;
+    Eigen::VectorXd g(np);
+    for (Eigen::Index b = 0; b < sigma.size(); ++b) {
+      const double res = (target(b) - eval(pts[size_t(b)], q, &g, &dx, &dy)) / sigma(b);
+      sum += res * res;
+      if (J) J->row(b) = g.transpose() / sigma(b), (*r)(b) = res;
+    }
+    return sum;
+  }
+
+  // Gauss-Newton with damping (Levenberg-Marquardt) from p: exact in one step for the
+  // polynomials (E linear in p). Leaves J and r at the final p; returns its chi^2.
+  double solve(Eigen::VectorXd &p, bool with_b, Eigen::MatrixXd &J, Eigen::VectorXd &r) const {
+    double lambda = with_b ? 1e-3 : 0.0;
+    double c = chi2(p, &J, &r);
+    for (int it = 0; it < (with_b ? 60 : 1); ++it) {
+      Eigen::MatrixXd A = J.transpose() * J;
+      A.diagonal() *= 1.0 + lambda;
+      const Eigen::VectorXd step = A.ldlt().solve(J.transpose() * r);
+      Eigen::VectorXd trial = p + step;
+      if (with_b) trial(np - 1) = std::max(0.0, trial(np - 1));  // a background adds to <|Q|^2>
+      const double c2 = chi2(trial, nullptr, nullptr);
+      if (c2 <= c || !with_b) {
+        const bool converged = c - c2 < 1e-10 * (1.0 + c);
+        p = trial, lambda *= 0.3;
+        c = chi2(p, &J, &r);
+        if (converged) break;
+      } else {
+        lambda = std::max(lambda * 10.0, 1e-6);
+      }
+    }
+    return c;
+  }
+
+  // New weights 1 / (E_model rel(E_model))^2 and targets from the fit p: each bin's E
+  // corrected for the spread of the model over the bin.
+  void reweight(const Eigen::VectorXd &p, const FrankVarianceModel &v) {
+    for (Eigen::Index b = 0; b < sigma.size(); ++b) {
+      const Point &pt = pts[size_t(b)];
+      double dx, dy;
+      const double m = eval(pt, p, nullptr, &dx, &dy);
+      const bool usable = m > 0.0 && std::isfinite(m);
+      const double E = usable ? m : pt.E;
+      sigma(b) = E * pt.rel(v, E);
+      const double spread = dx * dx * pt.vx + 2.0 * dx * dy * pt.cxy + dy * dy * pt.vy;
+      target(b) = usable ? pt.E * (1.0 + spread / (m * m)) : pt.E;
+    }
+  }
+};
+
 // Weighted least squares of E over the points in `range` with the Gauss-Newton /
 // Levenberg-Marquardt iteration (a single linear solve per reweighting for the polynomial
 // models). Weights 1 / (E_model rel(E_model))^2 from the previous iterate; the target is each
@@ -256,62 +314,25 @@ ModelValues fit_model(const std::vector<Point> &all, Model model, const FrankFit
   if (n <= np || !(xs > 0.0) || !(ys > 0.0) || !std::isfinite(v.g0)) return out;
   const Evaluator eval{mono, xs, ys, with_b};
 
-  Eigen::VectorXd p = Eigen::VectorXd::Zero(np), sigma(n), target(n);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(np);
   if (with_b) {  // start from the plane (b = 0), where the gradient in b is not zero
     const ModelValues plane = fit_model(pts, Model::kPlanar, o, v);
     if (!std::isfinite(plane.Km.value) || !std::isfinite(plane.K3.value)) return out;
     p(0) = plane.Km.value * xs, p(1) = plane.K3.value * ys;
   }
+  LeastSquares ls{pts, eval, np, Eigen::VectorXd(n), Eigen::VectorXd(n)};
   for (Eigen::Index b = 0; b < n; ++b) {
     const Point &pt = pts[size_t(b)];
-    target(b) = pt.E;
-    sigma(b) = pt.E * pt.rel(v, pt.E);
+    ls.target(b) = pt.E;
+    ls.sigma(b) = pt.E * pt.rel(v, pt.E);
   }
-  auto chi2_of = [&](const Eigen::VectorXd &q, Eigen::MatrixXd *J, Eigen::VectorXd *r) {
-    double chi2 = 0.0, dx, dy;
-    Eigen::VectorXd g(np);
-    for (Eigen::Index b = 0; b < n; ++b) {
-      const double res = (target(b) - eval(pts[size_t(b)], q, &g, &dx, &dy)) / sigma(b);
-      chi2 += res * res;
-      if (J) J->row(b) = g.transpose() / sigma(b), (*r)(b) = res;
-    }
-    return chi2;
-  };
   Eigen::MatrixXd J(n, np);
   Eigen::VectorXd r(n);
   double chi2 = 0.0;
   for (int reweight = 0; reweight < std::max(1, o.reweighting_iterations); ++reweight) {
-    // Gauss-Newton with damping: exact in one step for the polynomials (E linear in p).
-    double lambda = with_b ? 1e-3 : 0.0;
-    chi2 = chi2_of(p, &J, &r);
-    for (int it = 0; it < (with_b ? 60 : 1); ++it) {
-      Eigen::MatrixXd A = J.transpose() * J;
-      A.diagonal() *= 1.0 + lambda;
-      const Eigen::VectorXd step = A.ldlt().solve(J.transpose() * r);
-      Eigen::VectorXd trial = p + step;
-      if (with_b) trial(np - 1) = std::max(0.0, trial(np - 1));  // a background adds to <|Q|^2>
-      const double c2 = chi2_of(trial, nullptr, nullptr);
-      if (c2 <= chi2 || !with_b) {
-        const bool converged = chi2 - c2 < 1e-10 * (1.0 + chi2);
-        p = trial, lambda *= 0.3;
-        chi2 = chi2_of(p, &J, &r);
-        if (converged) break;
-      } else {
-        lambda = std::max(lambda * 10.0, 1e-6);
-      }
-    }
-    // New weights and targets from this fit.
-    for (Eigen::Index b = 0; b < n; ++b) {
-      const Point &pt = pts[size_t(b)];
-      double dx, dy;
-      const double m = eval(pt, p, nullptr, &dx, &dy);
-      const bool usable = m > 0.0 && std::isfinite(m);
-      const double E = usable ? m : pt.E;
-      sigma(b) = E * pt.rel(v, E);
-      const double spread = dx * dx * pt.vx + 2.0 * dx * dy * pt.cxy + dy * dy * pt.vy;
-      target(b) = usable ? pt.E * (1.0 + spread / (m * m)) : pt.E;
-    }
-    chi2 = chi2_of(p, &J, &r);
+    ls.solve(p, with_b, J, r);
+    ls.reweight(p, v);
+    chi2 = ls.chi2(p, &J, &r);
   }
   const Eigen::MatrixXd cov = (J.transpose() * J).inverse();
   out.chi2 = chi2 / double(out.dof);
@@ -492,59 +513,6 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
       (m == 1 ? result.E13 : result.E23)
           .push_back({p.x, p.y, p.E, p.E * p.rel(v[size_t(m - 1)], p.E), (long long)p.n});
   return result;
-}
-
-nlohmann::json to_json(const FrankResult &r) {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-  auto est = [&](const FrankEstimate &e) {
-    return nlohmann::json{{"value", num(e.value)},
-                          {"error", num(e.error)},
-                          {"fit_error", num(e.fit_error)},
-                          {"spread", num(e.spread)}};
-  };
-  auto model = [&](const FrankModelFit &f) {
-    return nlohmann::json{{"K1", est(f.K1)},
-                          {"K2", est(f.K2)},
-                          {"K3", est(f.K3)},
-                          {"K3_from_E13", est(f.K3_13)},
-                          {"K3_from_E23", est(f.K3_23)},
-                          {"bins_E13", f.bins_13},
-                          {"bins_E23", f.bins_23},
-                          {"chi2_per_dof_E13", num(f.chi2_13)},
-                          {"chi2_per_dof_E23", num(f.chi2_23)},
-                          {"chi2_dof", num(f.chi2_dof())},
-                          {"background_E13", est(f.background_13)},
-                          {"background_E23", est(f.background_23)},
-                          {"terms_E13", f.terms_13},
-                          {"terms_E23", f.terms_23}};
-  };
-  auto table = [&](const std::vector<FrankBinE> &bins) {
-    nlohmann::json t = nlohmann::json::array();
-    for (const FrankBinE &b : bins) t.push_back({b.k1sq, b.k3sq, num(b.E), num(b.error), b.count});
-    return t;
-  };
-  auto variance = [&](const FrankVarianceModel &v) {
-    return nlohmann::json{{"g0", num(v.g0)}, {"g1", num(v.g1)}, {"bins", v.bins}};
-  };
-  const FrankFitOptions &o = r.options;
-  return {{"planar", model(r.planar)},
-          {"cubic", model(r.cubic)},
-          {"background", model(r.background)},
-          {"ranges",
-           {{"planar_max_k2", o.planar_max_k2},
-            {"cubic_max_k1sq", o.cubic_max_k1sq},
-            {"cubic_max_k3sq", o.cubic_max_k3sq}}},
-          {"variance_model", {{"E13", variance(r.variance_13)}, {"E23", variance(r.variance_23)}}},
-          {"mean_S2", num(r.mean_S2)},
-          {"kT", o.kT},
-          {"self_term_subtracted", o.subtract_self_term},
-          {"samples", r.samples},
-          {"runs", r.runs},
-          {"replicas", r.replicas},
-          {"error_method", r.error_method},
-          {"bin_columns", {"k1sq", "k3sq", "E", "error", "count"}},
-          {"E13", table(r.E13)},
-          {"E23", table(r.E23)}};
 }
 
 }  // namespace hardrod

@@ -1,5 +1,6 @@
-// Frank elastic constants from FrankAccumulator data (docs/frank.md). Per (k1^2, k3^2) bin, E_m3 = (9/4) <S^2> V kT / <|Qk_m3|^2>, m = 1, 2;
-// the theory says E_m3 = K_m k1^2 + K3 k3^2 at small k. Three estimators:
+// Frank elastic constants from FrankAccumulator data (docs/frank.md). Per (k1^2, k3^2) bin,
+// E_m3 = (9/4) <S^2> V kT / <|Qk_m3|^2>, m = 1, 2; the theory says E_m3 = K_m k1^2 + K3 k3^2
+// at small k. Three estimators:
 //  planar      the plane E = K_m k1^2 + K3 k3^2 over bins with k1^2, k3^2 < 0.1 D^-2 (the
 //              paper's). Reads a secant of E_obs = E / (1 + b E), where b is the white
 //              background of uncorrelated molecular disorder: biased low by ~ b E there.
@@ -19,12 +20,12 @@
 // since the relaxation time goes as 1 / E. Fits are weighted least squares with these
 // variances; a fit's error is its covariance, scaled up by sqrt(chi^2/dof) when that exceeds 1;
 // the quoted error is the larger of that and the spread of the replicas' own fits (three or
-// more replicas). chi^2/dof near 1 says the errors and the model fit. Serial and deterministic (bins, not bodies: milliseconds).
+// more replicas). chi^2/dof near 1 says the errors and the model fit. Serial and
+// deterministic (bins, not bodies: milliseconds). The result as JSON: runtime/frank_io.hpp.
 #pragma once
 
 #include <array>
 #include <limits>
-#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -110,7 +111,5 @@ struct FrankResult {
 // finite, gives NaN. Throws std::invalid_argument for no runs.
 FrankResult fit_frank(const std::vector<FrankAccumulator> &runs,
                       const FrankFitOptions &options = {});
-
-nlohmann::json to_json(const FrankResult &result);  // NaN written as null
 
 }  // namespace hardrod

@@ -49,199 +49,262 @@ void keep_first_ring(NeighborList &list, Particles &p, std::size_t count, std::s
   list.pairs.resize(kept);
 }
 
+// Bodies sorted by cell (owned ones first): neighbours in space are neighbours in memory
+// for every later pass. Ids travel with the bodies. The cell list then names the bodies by
+// their new indices (the cells and their counts are those of the same positions; within a
+// cell the owned bodies still come first, each group in rising order, as binning the new
+// order gives); with one rank a cell's bodies are one contiguous index range.
+void sort_bodies_by_cell(CellList &cells, Particles &p, std::size_t count, std::size_t owned) {
+  std::vector<std::uint32_t> perm, where(count);
+  perm.reserve(count);
+  for (std::uint32_t b : cells.order)
+    if (b < owned) where[b] = static_cast<std::uint32_t>(perm.size()), perm.push_back(b);
+  for (std::uint32_t b : cells.order)
+    if (b >= owned) where[b] = static_cast<std::uint32_t>(perm.size()), perm.push_back(b);
+  p.permute(perm);
+  for (std::uint32_t &b : cells.order) b = where[b];
+}
+
+// What the search for pairs reads, fixed for one build.
+// Where every axis has the full stencil, a pair within reach has one periodic image, and
+// the cell it was found through says which: candidates are gathered per cell from folded
+// centres shifted by whole box lengths, and measured without a rounding per coordinate
+// (box.minimum_image). This only preselects: the survivors are measured exactly as
+// without it, from minimum_image, so the pairs and their slacks are those of that test alone.
+struct PairSearch {
+  PairSearch(const Particles &p, std::size_t count, const Box &box, const Shape &shape,
+             const CellList &cl, double skin);
+  const Particles &p;
+  const Box &box;
+  const CellList &cl;
+  Vec3 inverse;
+  double diameter, h;
+  bool rods, unique_images;
+  std::array<double, 3> side;
+  double reach;          // segment distance kept in the list
+  double centre_reach2;  // centres further apart than (L + reach) cannot be within reach
+  double prefilter_reach2;
+  // The preselection keeps a little more than the reach: rounding of the folded and the
+  // minimum-image differences differ in the last bits.
+  double gather_reach2, loose_reach2;
+  std::vector<double> fx, fy, fz;  // folded centres (unique_images)
+};
+
+PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, const Shape &shape,
+                       const CellList &cl, double skin)
+    : p(p),
+      box(box),
+      cl(cl),
+      inverse(box.inverse_length()),
+      diameter(shape.diameter),
+      h(shape.half_length()),
+      rods(!shape.is_sphere()),
+      unique_images(cl.full_stencil),
+      side{box.length.x, box.length.y, box.length.z},
+      reach(shape.diameter + skin) {
+  const double centre_reach = shape.length + reach;
+  centre_reach2 = centre_reach * centre_reach;
+  prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
+  gather_reach2 = centre_reach2 * (1.0 + 1e-9) + 1e-9;
+  loose_reach2 = (reach + 1e-6) * (reach + 1e-6);
+  if (!unique_images) return;
+  fx.resize(count), fy.resize(count), fz.resize(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    fx[i] = Box::wrap(p.x[i], side[0]);
+    fy[i] = Box::wrap(p.y[i], side[1]);
+    fz[i] = Box::wrap(p.z[i], side[2]);
+  }
+}
+
+// One thread's scratch for the cells it searches; grown, never shrunk (no refills).
+struct CellScratch {
+  struct Gathered {
+    int cell;
+    double sx, sy, sz;  // shift of the cell's folded centres next to the searched cell
+  };
+  std::vector<Gathered> cells_here;  // the searched cell first, then its later neighbours
+  // The cell's own bodies, then those of the stencil's later cells (nc > c): body a of
+  // the cell meets the candidates after it, so each unordered pair is taken once.
+  std::vector<std::uint32_t> cand;
+  std::vector<double> cx, cy, cz;   // their folded, shifted centres (unique_images)
+  std::vector<double> ex, ey, ez;   // and their axes (rods)
+  std::vector<double> keep;         // 1.0 for a candidate kept by the preselection
+  std::vector<std::uint32_t> near;  // candidates kept for the exact test
+};
+
+// The candidates of cell c: its bodies, then those of the stencil's cells after it. Returns
+// how many are c's own.
+std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
+  const CellList &cl = s.cl;
+  const int cx = c % cl.extent[0];  // window coordinates
+  const int cy = (c / cl.extent[0]) % cl.extent[1];
+  const int cz = c / (cl.extent[0] * cl.extent[1]);
+  const int bx = cl.box_coordinate(0, cx), by = cl.box_coordinate(1, cy),
+            bz = cl.box_coordinate(2, cz);
+  w.cells_here.clear();
+  w.cells_here.push_back({c, 0.0, 0.0, 0.0});
+  for (const auto &o : cl.stencil) {
+    // The stencil reaches distinct cells, so visiting only cells nc >= c (and, in c
+    // itself, only later bodies) takes each unordered pair exactly once. Outside the
+    // window (-1) there are no bodies.
+    const int nc = cl.neighbour(cx, cy, cz, o);
+    if (nc <= c) continue;
+    // The shift that brings the neighbour cell's folded centres next to this cell.
+    const auto shift = [](int at, int n, double length) {
+      return at < 0 ? -length : (at >= n ? length : 0.0);
+    };
+    w.cells_here.push_back({nc, shift(bx + o[0], cl.cells[0], s.side[0]),
+                            shift(by + o[1], cl.cells[1], s.side[1]),
+                            shift(bz + o[2], cl.cells[2], s.side[2])});
+  }
+  std::size_t total = 0;
+  for (const CellScratch::Gathered &g : w.cells_here)
+    total += cl.cell_start[g.cell + 1] - cl.cell_start[g.cell];
+  w.cand.resize(total);
+  if (s.unique_images) w.cx.resize(total), w.cy.resize(total), w.cz.resize(total);
+  if (s.unique_images && s.rods) w.ex.resize(total), w.ey.resize(total), w.ez.resize(total);
+  const std::uint32_t *member = cl.order.data();
+  std::size_t q = 0;
+  for (const CellScratch::Gathered &g : w.cells_here)
+    for (std::uint32_t b = cl.cell_start[g.cell]; b < cl.cell_start[g.cell + 1]; ++b, ++q) {
+      const std::uint32_t j = member[b];
+      w.cand[q] = j;
+      if (s.unique_images) {
+        w.cx[q] = s.fx[j] + g.sx;
+        w.cy[q] = s.fy[j] + g.sy;
+        w.cz[q] = s.fz[j] + g.sz;
+        if (s.rods) w.ex[q] = s.p.ex[j], w.ey[q] = s.p.ey[j], w.ez[q] = s.p.ez[j];
+      }
+    }
+  return cl.cell_start[c + 1] - cl.cell_start[c];
+}
+
+// Rods with unique images: the centre test and the side-by-side bound (|r_perp| - h |e_j . n|
+// against the reach) of candidate a against every later candidate at once: a vector loop
+// writes which are kept, then they are listed in w.near. In a nematic about one candidate in
+// five passes the centre test and one in ~40 both. Looser than the exact tests of list_pairs
+// (a 1e-6 margin against rounding of the shifted folded centres), so it only drops pairs
+// those would drop. Returns how many are kept.
+std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t a) {
+  const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
+  const double h = s.h, gather_reach2 = s.gather_reach2, loose_reach2 = s.loose_reach2;
+  const double xi = w.cx[a], yi = w.cy[a], zi = w.cz[a];
+  const double eix = w.ex[a], eiy = w.ey[a], eiz = w.ez[a];
+  if (w.keep.size() < ncand) w.keep.resize(ncand);
+  double *__restrict k = w.keep.data();
+  const double *__restrict qx = w.cx.data(), *__restrict qy = w.cy.data(),
+                           *__restrict qz = w.cz.data(), *__restrict qex = w.ex.data(),
+                           *__restrict qey = w.ey.data(), *__restrict qez = w.ez.data();
+#pragma omp simd
+  for (std::uint32_t q = a + 1; q < ncand; ++q) {
+    const double dx = qx[q] - xi, dy = qy[q] - yi, dz = qz[q] - zi;
+    const double s = dx * eix + dy * eiy + dz * eiz;
+    const double px = dx - s * eix, py = dy - s * eiy, pz = dz - s * eiz;
+    const double rp2 = px * px + py * py + pz * pz;
+    const double lower = rp2 - h * std::fabs(qex[q] * px + qey[q] * py + qez[q] * pz);
+    const bool apart = lower > 0.0 && lower * lower > loose_reach2 * rp2;
+    k[q] = (dx * dx + dy * dy + dz * dz < gather_reach2 && !apart) ? 1.0 : 0.0;
+  }
+  std::uint32_t kept = 0;
+  for (std::uint32_t q = a + 1; q < ncand; ++q) {
+    w.near[kept] = w.cand[q];
+    kept += k[q] != 0.0;
+  }
+  return kept;
+}
+
+// Spheres with unique images: the centre test alone. Branch-free: about one candidate in
+// five is kept, which a branch mispredicts.
+std::uint32_t preselect_centres(const PairSearch &s, CellScratch &w, std::uint32_t a) {
+  const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
+  const double gather_reach2 = s.gather_reach2;
+  const double xi = w.cx[a], yi = w.cy[a], zi = w.cz[a];
+  std::uint32_t kept = 0;
+  for (std::uint32_t q = a + 1; q < ncand; ++q) {
+    const double dx = w.cx[q] - xi, dy = w.cy[q] - yi, dz = w.cz[q] - zi;
+    w.near[kept] = w.cand[q];
+    kept += dx * dx + dy * dy + dz * dz < gather_reach2;
+  }
+  return kept;
+}
+
+// The exact tests of body i against the kept candidates near[0, kept): each pair whose
+// segments are within the reach is listed with its slack.
+void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near, std::uint32_t kept,
+                std::vector<ListedPair> &mine) {
+  const Particles &p = s.p;
+  const Vec3 ei = p.axis(i);
+  for (std::uint32_t k = 0; k < kept; ++k) {
+    const std::uint32_t j = near[k];
+    const Vec3 rij = s.box.minimum_image(p.position(j) - p.position(i), s.inverse);
+    if (!(norm2(rij) < s.centre_reach2)) continue;
+    const Vec3 ej = p.axis(j);
+    // Cheap lower bound first: with n the unit vector along r's part perpendicular
+    // to e_i, every point pair of the two segments is at least |r_perp| - h |e_j . n|
+    // apart. Side-by-side rods further than the reach are dropped here without the
+    // segment distance (most candidates in a nematic). Squared, without a root;
+    // the margin keeps rounding from dropping a pair inside the reach.
+    if (s.rods) {
+      const Vec3 rperp = rij - dot(rij, ei) * ei;
+      const double rp2 = norm2(rperp);
+      const double lower = rp2 - s.h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
+      if (lower > 0.0 && lower * lower > s.prefilter_reach2 * rp2) continue;
+    }
+    const SegmentClosest sc = segment_closest(rij, ei, s.h, ej, s.h);
+    const double d = std::sqrt(sc.dist2);
+    if (d >= s.reach) continue;
+    mine.push_back({i, j, d - s.diameter - kDistanceSafetyMargin, 0.0});
+  }
+}
+
+// The pairs of cell c's bodies with the later candidates, appended to `mine`.
+void search_cell(const PairSearch &s, int c, CellScratch &w, std::vector<ListedPair> &mine) {
+  const std::uint32_t own = gather_cell(s, c, w);
+  const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
+  for (std::uint32_t a = 0; a < own; ++a) {
+    if (w.near.size() < ncand) w.near.resize(ncand);
+    std::uint32_t kept = 0;
+    if (s.unique_images && s.rods) {
+      kept = preselect_rods(s, w, a);
+    } else if (s.unique_images) {
+      kept = preselect_centres(s, w, a);
+    } else {
+      for (std::uint32_t q = a + 1; q < ncand; ++q) w.near[kept++] = w.cand[q];
+    }
+    list_pairs(s, w.cand[a], w.near.data(), kept, mine);
+  }
+}
+
+// Every pair within reach, in cell order, into `pairs` (its storage reused). Contiguous blocks of
+// cells per thread, concatenated in thread order: the list comes out in cell order, which is body
+// order. So the per-step passes, split in blocks of bodies (team_block), give each thread mostly
+// its own pairs too, and the bodies' motion bounds stay in its cache instead of moving between
+// cores every step (with interleaved blocks, two threads detected no faster than one).
+void find_pairs(const PairSearch &s, std::vector<ListedPair> &pairs) {
+  std::vector<std::vector<ListedPair>> found(omp_get_max_threads());
+#pragma omp parallel
+  {
+    std::vector<ListedPair> &mine = found[omp_get_thread_num()];
+    CellScratch scratch;
+#pragma omp for schedule(static)
+    for (int c = 0; c < s.cl.cell_count(); ++c) {
+      // An empty cell has no pairs to start (in a gas, or the box beyond a rank's halo).
+      if (s.cl.cell_start[c + 1] == s.cl.cell_start[c]) continue;
+      search_cell(s, c, scratch, mine);
+    }
+  }
+  pairs.clear();
+  for (const auto &f : found) pairs.insert(pairs.end(), f.begin(), f.end());
+}
+
 }  // namespace
 
 void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, std::size_t owned,
                          const Box &box, const Shape &shape) {
-  const double reach = shape.diameter + list.skin;  // segment distance kept in the list
-  const double centre_reach = shape.length + reach;
-  const double centre_reach2 = centre_reach * centre_reach;
-  const double h = shape.half_length();
-  const bool rods = !shape.is_sphere();
-  const double prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
-  build_cell_list(list.cells, p, count, box, centre_reach, true);
-  // Bodies sorted by cell (owned ones first): neighbours in space are neighbours in memory
-  // for every later pass. Ids travel with the bodies. The cell list then names the bodies
-  // by their new indices (the cells and their counts are those of the same positions; within
-  // a cell the owned bodies still come first, each group in rising order, as binning the new
-  // order gives); with one rank a cell's bodies are one contiguous index range.
-  {
-    std::vector<std::uint32_t> perm, where(count);
-    perm.reserve(count);
-    for (std::uint32_t b : list.cells.order)
-      if (b < owned) where[b] = static_cast<std::uint32_t>(perm.size()), perm.push_back(b);
-    for (std::uint32_t b : list.cells.order)
-      if (b >= owned) where[b] = static_cast<std::uint32_t>(perm.size()), perm.push_back(b);
-    p.permute(perm);
-    for (std::uint32_t &b : list.cells.order) b = where[b];
-  }
-  const CellList &cl = list.cells;
-  const std::uint32_t *member = cl.order.data();
-  const Vec3 inverse = box.inverse_length();
-  const double *x = p.x.data(), *y = p.y.data(), *z = p.z.data();
-
-  // Where every axis has the full stencil, a pair within reach has one periodic image, and
-  // the cell it was found through says which: candidates are gathered per cell from folded
-  // centres shifted by whole box lengths, and measured without a rounding per coordinate
-  // (box.minimum_image). This only preselects: the survivors are measured exactly as
-  // before, from minimum_image, so the pairs and their slacks are those of that test alone.
-  const bool unique_images = cl.full_stencil;
-  const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
-  std::vector<double> fx, fy, fz;  // folded centres
-  if (unique_images) {
-    fx.resize(count), fy.resize(count), fz.resize(count);
-    for (std::size_t i = 0; i < count; ++i) {
-      fx[i] = Box::wrap(x[i], side[0]);
-      fy[i] = Box::wrap(y[i], side[1]);
-      fz[i] = Box::wrap(z[i], side[2]);
-    }
-  }
-  // The preselection keeps a little more than the reach: rounding of the folded and the
-  // minimum-image differences differ in the last bits.
-  const double gather_reach2 = centre_reach2 * (1.0 + 1e-9) + 1e-9;
-  const double loose_reach2 = (reach + 1e-6) * (reach + 1e-6);
-
-  const int nthreads = omp_get_max_threads();
-  std::vector<std::vector<ListedPair>> found(nthreads);
-
-#pragma omp parallel
-  {
-    const int tid = omp_get_thread_num();
-    auto &mine = found[tid];
-    std::vector<std::uint32_t> near;  // candidates whose centres are within reach
-    // The cell's own bodies, then those of the stencil's later cells (nc > c): body a of
-    // the cell meets the candidates after it, so each unordered pair is taken once.
-    std::vector<std::uint32_t> cand;
-    std::vector<double> cx_, cy_, cz_;  // their folded, shifted centres (unique_images)
-    std::vector<double> ex_, ey_, ez_;  // and their axes (rods)
-    std::vector<double> keep;           // 1.0 for a candidate kept by the preselection
-    struct Gathered {
-      int cell;
-      double sx, sy, sz;
-    };
-    std::vector<Gathered> cells_here;
-    // Contiguous blocks of cells per thread, concatenated in thread order: the list comes out
-    // in cell order, which is body order. So the per-step passes, split in blocks of bodies
-    // (team_block), give each thread mostly its own pairs too, and the bodies' motion
-    // bounds stay in its cache instead of moving between cores every step (with interleaved
-    // blocks, two threads detected no faster than one).
-#pragma omp for schedule(static)
-    for (int c = 0; c < cl.cell_count(); ++c) {
-      // An empty cell has no pairs to start (in a gas, or the box beyond a rank's halo).
-      if (cl.cell_start[c + 1] == cl.cell_start[c]) continue;
-      const int cx = c % cl.extent[0];  // window coordinates
-      const int cy = (c / cl.extent[0]) % cl.extent[1];
-      const int cz = c / (cl.extent[0] * cl.extent[1]);
-      const int bx = cl.box_coordinate(0, cx), by = cl.box_coordinate(1, cy),
-                bz = cl.box_coordinate(2, cz);
-      // The cells gathered (own first) and the shifts of their folded centres.
-      cells_here.clear();
-      cells_here.push_back({c, 0.0, 0.0, 0.0});
-      for (const auto &o : cl.stencil) {
-        // The stencil reaches distinct cells, so visiting only cells nc >= c (and, in c
-        // itself, only later bodies) takes each unordered pair exactly once. Outside the
-        // window (-1) there are no bodies.
-        const int nc = cl.neighbour(cx, cy, cz, o);
-        if (nc <= c) continue;
-        // The shift that brings the neighbour cell's folded centres next to this cell.
-        const auto shift = [](int at, int n, double length) {
-          return at < 0 ? -length : (at >= n ? length : 0.0);
-        };
-        cells_here.push_back({nc, shift(bx + o[0], cl.cells[0], side[0]),
-                              shift(by + o[1], cl.cells[1], side[1]),
-                              shift(bz + o[2], cl.cells[2], side[2])});
-      }
-      std::size_t total = 0;
-      for (const Gathered &g : cells_here)
-        total += cl.cell_start[g.cell + 1] - cl.cell_start[g.cell];
-      cand.resize(total);
-      if (unique_images) cx_.resize(total), cy_.resize(total), cz_.resize(total);
-      if (unique_images && rods) ex_.resize(total), ey_.resize(total), ez_.resize(total);
-      std::size_t q = 0;
-      for (const Gathered &g : cells_here)
-        for (std::uint32_t b = cl.cell_start[g.cell]; b < cl.cell_start[g.cell + 1]; ++b, ++q) {
-          const std::uint32_t j = member[b];
-          cand[q] = j;
-          if (unique_images) {
-            cx_[q] = fx[j] + g.sx;
-            cy_[q] = fy[j] + g.sy;
-            cz_[q] = fz[j] + g.sz;
-            if (rods) ex_[q] = p.ex[j], ey_[q] = p.ey[j], ez_[q] = p.ez[j];
-          }
-        }
-      const std::uint32_t own = cl.cell_start[c + 1] - cl.cell_start[c];
-      const std::uint32_t ncand = static_cast<std::uint32_t>(cand.size());
-      for (std::uint32_t a = 0; a < own; ++a) {
-        const std::uint32_t i = cand[a];
-        if (near.size() < ncand) near.resize(ncand);  // grown, never shrunk: no refills
-        std::uint32_t kept = 0;
-        if (unique_images && rods) {
-          // The centre test and the side-by-side bound below (|r_perp| - h |e_j . n|
-          // against the reach) for every candidate at once: a vector loop writes which
-          // are kept, then they are listed. In a nematic about one candidate in five
-          // passes the centre test and one in ~40 both. Looser than the exact tests below
-          // (a 1e-6 margin against rounding of the shifted folded centres), so it only
-          // drops pairs those would drop.
-          const double xi = cx_[a], yi = cy_[a], zi = cz_[a];
-          const double eix = ex_[a], eiy = ey_[a], eiz = ez_[a];
-          if (keep.size() < ncand) keep.resize(ncand);
-          double *__restrict k = keep.data();
-          const double *__restrict qx = cx_.data(), *__restrict qy = cy_.data(),
-                                   *__restrict qz = cz_.data(), *__restrict qex = ex_.data(),
-                                   *__restrict qey = ey_.data(), *__restrict qez = ez_.data();
-#pragma omp simd
-          for (std::uint32_t q = a + 1; q < ncand; ++q) {
-            const double dx = qx[q] - xi, dy = qy[q] - yi, dz = qz[q] - zi;
-            const double s = dx * eix + dy * eiy + dz * eiz;
-            const double px = dx - s * eix, py = dy - s * eiy, pz = dz - s * eiz;
-            const double rp2 = px * px + py * py + pz * pz;
-            const double lower = rp2 - h * std::fabs(qex[q] * px + qey[q] * py + qez[q] * pz);
-            const bool apart = lower > 0.0 && lower * lower > loose_reach2 * rp2;
-            k[q] = (dx * dx + dy * dy + dz * dz < gather_reach2 && !apart) ? 1.0 : 0.0;
-          }
-          for (std::uint32_t q = a + 1; q < ncand; ++q) {
-            near[kept] = cand[q];
-            kept += k[q] != 0.0;
-          }
-        } else if (unique_images) {
-          // Branch-free: about one candidate in five is kept, which a branch mispredicts.
-          const double xi = cx_[a], yi = cy_[a], zi = cz_[a];
-          for (std::uint32_t q = a + 1; q < ncand; ++q) {
-            const double dx = cx_[q] - xi, dy = cy_[q] - yi, dz = cz_[q] - zi;
-            near[kept] = cand[q];
-            kept += dx * dx + dy * dy + dz * dz < gather_reach2;
-          }
-        } else {
-          for (std::uint32_t q = a + 1; q < ncand; ++q) near[kept++] = cand[q];
-        }
-        const Vec3 ei = p.axis(i);
-        for (std::uint32_t k = 0; k < kept; ++k) {
-          const std::uint32_t j = near[k];
-          const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
-          if (!(norm2(rij) < centre_reach2)) continue;
-          const Vec3 ej = p.axis(j);
-          // Cheap lower bound first: with n the unit vector along r's part perpendicular
-          // to e_i, every point pair of the two segments is at least |r_perp| - h |e_j . n|
-          // apart. Side-by-side rods further than the reach are dropped here without the
-          // segment distance (most candidates in a nematic). Squared, without a root;
-          // the margin keeps rounding from dropping a pair inside the reach.
-          if (rods) {
-            const Vec3 rperp = rij - dot(rij, ei) * ei;
-            const double rp2 = norm2(rperp);
-            const double lower = rp2 - h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
-            if (lower > 0.0 && lower * lower > prefilter_reach2 * rp2) continue;
-          }
-          const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
-          const double d = std::sqrt(sc.dist2);
-          if (d >= reach) continue;
-          mine.push_back({i, j, d - shape.diameter - kDistanceSafetyMargin, 0.0});
-        }
-      }
-    }
-  }
-
-  list.pairs.clear();
-  for (const auto &f : found) list.pairs.insert(list.pairs.end(), f.begin(), f.end());
+  const double reach = shape.diameter + list.skin;
+  build_cell_list(list.cells, p, count, box, shape.length + reach, true);
+  sort_bodies_by_cell(list.cells, p, count, owned);
+  find_pairs(PairSearch(p, count, box, shape, list.cells, list.skin), list.pairs);
   list.active = count;
   if (count > owned) keep_first_ring(list, p, count, owned);
   arm_watches(list);

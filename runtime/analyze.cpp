@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "kernels/frank_fit.hpp"
+#include "runtime/frank_io.hpp"
 
 namespace hardrod {
 
@@ -124,7 +125,7 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
     const fs::path f = fs::path(dir) / "frank.json";
     if (fs::exists(f)) {
       try {
-        frank.push_back(FrankAccumulator::load(f.string()));
+        frank.push_back(load_frank_accumulator(f.string()));
       } catch (const std::exception &e) {
         throw std::runtime_error(fmt::format("{}: {}", f.string(), e.what()));
       }

@@ -21,6 +21,7 @@
 #include "perf/counters.hpp"
 #include "perf/topology.hpp"
 #include "runtime/checkpoint.hpp"
+#include "runtime/frank_io.hpp"
 #include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
 
@@ -250,7 +251,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
         if (from->root_state.empty())
           throw std::invalid_argument("the Frank accumulator is missing");
         frank = std::make_unique<FrankAccumulator>(
-            FrankAccumulator::from_json(nlohmann::json::parse(from->root_state)));
+            frank_accumulator_from_json(nlohmann::json::parse(from->root_state)));
       }
     } catch (const std::exception &e) {
       throw CheckpointError(
@@ -333,7 +334,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
     saved.trajectory_frames = frames;
     c.run_state =
         nlohmann::json(SavedState{saved, sim.pending_interval(), sim.thermostat_record()}).dump();
-    if (frank) c.root_state = frank->to_json().dump();
+    if (frank) c.root_state = to_json(*frank).dump();
     write_checkpoint(comm, dir, sim.particles(), sim.owned_count(), c);
   };
   const long long fourier_every =
@@ -668,7 +669,7 @@ nlohmann::json execute(const Scene &scene, const RunOptions &options, const Chec
   if (!failure.empty()) summary["error"] = failure;
   if (!stopped_by.empty()) summary["stopped_by"] = stopped_by;
   if (frank) {
-    frank->save((dir / "frank.json").string());
+    save_frank_accumulator(*frank, (dir / "frank.json").string());
     summary["frank_samples"] = frank->samples();
   }
   if (root && st.angular.total > 0) {

@@ -35,6 +35,7 @@
 #include "kernels/contact_resolution.hpp"
 #include "kernels/exact_sum.hpp"
 #include "kernels/fourier_order_tensor.hpp"
+#include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/order_tensor.hpp"
 #include "kernels/particles.hpp"

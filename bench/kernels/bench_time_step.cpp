@@ -14,7 +14,7 @@
 #include <memory>
 
 #include "kernels/contact_detection.hpp"
-#include "kernels/integrator.hpp"
+#include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "runtime/simulation.hpp"
 

@@ -1,7 +1,8 @@
 // Fourier order tensor against a direct O(N k^3) double loop with std::complex, bit-identity
 // for 1, 2 and 4 threads, Qk(-k) = conj Qk(k), zero signal of a perfect aligned lattice, the
-// self (fourth-moment) term; and the FrankAccumulator: frame, binning, blocks, merging and
-// JSON round trip (SPEC.md sections 5 and 7). Random numbers: std::mt19937_64, fixed seeds.
+// self (fourth-moment) term; and the FrankAccumulator: frame, binning, blocks, merging
+// (SPEC.md sections 5 and 7; its JSON: tests/runtime/test_frank_io.cpp). Random numbers:
+// std::mt19937_64, fixed seeds.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -11,7 +12,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -276,23 +276,6 @@ TEST(FrankAccumulator, BlocksCloseCompactAndMergeOnlyWhenCompatible) {
   EXPECT_EQ(a.samples(), 12);  // nothing was added by the failed calls
   EXPECT_THROW(FrankAccumulator(one.box, 1, 2, FrankAccumulatorConfig{0.01, 1, 3}),
                std::invalid_argument);
-}
-
-TEST(FrankAccumulator, JsonRoundTripIsExactAndMalformedInputIsRejected) {
-  const SingleBody one;
-  FrankAccumulator a(one.box, 1, 2);
-  a.add_sample(one.qk, {0.1, 0.2, 1.0}, 0.7);
-  a.add_sample(one.qk, {0.0, 0.3, 1.0}, 0.75);
-  const nlohmann::json j = a.to_json();
-  const FrankAccumulator back = FrankAccumulator::from_json(nlohmann::json::parse(j.dump()));
-  EXPECT_EQ(back.to_json(), j);
-  EXPECT_EQ(back.samples(), 2);
-  EXPECT_THROW(FrankAccumulator::from_json(nlohmann::json{{"format", "something else"}}),
-               std::invalid_argument);
-  nlohmann::json broken = j;
-  broken["blocks"][0]["bins"][0].erase(0);
-  EXPECT_THROW(FrankAccumulator::from_json(broken), std::invalid_argument);
-  EXPECT_THROW(FrankAccumulator::load("/nonexistent/frank.json"), std::runtime_error);
 }
 
 }  // namespace

@@ -6,7 +6,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -151,28 +150,6 @@ TEST(FrankFit, EstimatesArePositiveWithAnErrorOrNotDetermined) {
         }
     }
   }
-}
-
-// A saved and reloaded accumulator gives the same fit, bit for bit (a small system: this is
-// about the file, not the physics).
-TEST(FrankSynthetic, AccumulatorSurvivesAFileRoundTrip) {
-  SyntheticNematic s;
-  s.side = 28.5256;  // the everyday scene's box
-  s.bodies = 2304;
-  s.kmax = 3;
-  FrankAccumulator acc(Box{{s.side, s.side, s.side}}, static_cast<long long>(s.bodies), s.kmax,
-                       block_config());
-  accumulate(s, 30, 77, acc);
-  const std::string path = ::testing::TempDir() + "frank_accumulator_roundtrip.json";
-  acc.save(path);
-  const FrankAccumulator back = FrankAccumulator::load(path);
-  std::remove(path.c_str());
-  EXPECT_EQ(back.to_json(), acc.to_json());
-  FrankFitOptions o = fit_options(true);
-  o.min_bin_count = 2;
-  const nlohmann::json a = to_json(fit_frank({acc}, o)), b = to_json(fit_frank({back}, o));
-  EXPECT_EQ(a, b);
-  EXPECT_TRUE(a["planar"]["K1"]["value"].is_number()) << a["planar"].dump();
 }
 
 // Must-fail check: with splay and twist swapped in the generator the fit must follow.
