@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "runtime/scene.hpp"
-#include "runtime/signals.hpp"
 #include "runtime/simulation.hpp"
 
 namespace hardrod {

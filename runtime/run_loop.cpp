@@ -31,6 +31,9 @@ long long steps_to(long long now, long long interval, long long origin) {
   return interval - into;
 }
 
+// Whether something written every `interval` steps (0: never) is due at `step`.
+bool due_every(long long interval, long long step) { return interval > 0 && step % interval == 0; }
+
 }  // namespace
 
 RunLoop::RunLoop(const Scene &scene, const RunOptions &options, const Checkpoint *from)
@@ -90,7 +93,7 @@ nlohmann::json RunLoop::run() {
   setup_seconds_ =
       sim_->comm().max("setup", {std::chrono::duration<double>(start_ - setup_start_).count()})[0];
   try {
-    steps();
+    step_to_target();
   } catch (const PhysicsError &e) {
     failure_ = e.what();
     if (!quiet_ && live_) fmt::print("\n");
@@ -99,24 +102,22 @@ nlohmann::json RunLoop::run() {
   return finish();
 }
 
-// Equilibration and production as one sequence of bursts; between bursts whatever is due.
-void RunLoop::steps() {
+// Equilibration and production as one sequence of bursts of steps; after each burst
+// whatever is due at the step it ended on, in this order.
+void RunLoop::step_to_target() {
   Simulation &sim = *sim_;
   while (sim.current_step() < total_steps_) {
-    sim.request_stop(stop_signal() != 0);
+    sim.request_stop(stop_signal() != 0);  // agreed on in the next step's reduction
     sim.advance(next_burst());
     if (options_.verify) sim.verify_bodies();
     const long long step = sim.current_step();
-    if (scene_.snapshot_interval > 0 && step % scene_.snapshot_interval == 0) write_frame();
-    if (scene_.frank && step > scene_.equilibration_steps &&
-        (step - scene_.equilibration_steps) % fourier_every_ == 0)
-      sample_fourier();
+    if (due_every(scene_.snapshot_interval, step)) write_frame();
+    if (fourier_due(step)) sample_fourier();
     sample_if_due(step);
     // Checkpoints: on schedule, at the end, and when a signal asked for a stop. Taken
     // before a last partial sample, so that a resume continues the same intervals.
     const bool stop = sim.stop_agreed();
-    if (stop || step == total_steps_ ||
-        (scene_.checkpoint_interval > 0 && step % scene_.checkpoint_interval == 0))
+    if (stop || step == total_steps_ || due_every(scene_.checkpoint_interval, step))
       write_checkpoint();
     if (stop) {
       stopped_by_ = stop_signal_name();

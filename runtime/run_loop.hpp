@@ -41,7 +41,7 @@ class RunLoop {
   using Clock = std::chrono::steady_clock;
 
   void restore(const Checkpoint &from);
-  void steps();
+  void step_to_target();
   long long next_burst() const;
   void sample_if_due(long long step);
   void take_sample(bool production);
@@ -57,6 +57,11 @@ class RunLoop {
   // production, in equilibration too (its samples go to the time series only).
   bool on_sample_schedule(long long step) const {
     return (step - scene_.equilibration_steps) % scene_.sample_interval == 0;
+  }
+  // Fourier samples (scenes with frank = true) are taken in production only.
+  bool fourier_due(long long step) const {
+    return scene_.frank && step > scene_.equilibration_steps &&
+           (step - scene_.equilibration_steps) % fourier_every_ == 0;
   }
 
   const Scene &scene_;
