@@ -1,6 +1,8 @@
 // The hardrod command line: `hardrod run SCENE.toml [--set key=value ...] [--out DIR]`,
 // `hardrod resume DIR [--set run.steps=N]`, `hardrod analyze DIR...`,
-// `hardrod export TRAJECTORY.h5 [--frame K]`, `hardrod info`.
+// `hardrod export TRAJECTORY.h5 [--frame K]`, `hardrod info`. One function declares each
+// verb's options, one carries it out; the work itself is in runtime/ (run.hpp, analyze.hpp,
+// snapshot.hpp, info.hpp).
 // Exit status: 0 success, 1 usage, 2 bad scene, output directory or checkpoint, 3 the
 // physics broke (overlap beyond tolerance, NaN): the message says which step and dt,
 // 4 stopped by SIGTERM/SIGUSR1/SIGINT after writing a checkpoint (resume continues it).
@@ -10,6 +12,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,6 +23,7 @@
 #include "runtime/info.hpp"
 #include "runtime/run.hpp"
 #include "runtime/scene.hpp"
+#include "runtime/signals.hpp"
 #include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
 
@@ -43,8 +47,108 @@ CLI::Validator positive(const std::string &option) {
       "POSITIVE");
 }
 
+// The options of a process that steps a simulation: the same for run and resume.
+struct ExecutionArgs {
+  hardrod::RunOptions options;
+  int threads = 0;
+  bool quiet = false;
+  bool no_bind = false;
+  std::string grid;
+  std::string balance = "time";
+};
+
+void add_execution_options(CLI::App *cmd, ExecutionArgs &e) {
+  cmd->add_option("--threads", e.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+      ->check(positive("--threads"));
+  cmd->add_flag("--quiet", e.quiet, "no progress output");
+  cmd->add_flag("--no-bind", e.no_bind, "do not bind OpenMP threads to cores");
+  cmd->add_flag("--verify", e.options.verify,
+                "after every step check that every body is owned once and every shadow equals "
+                "its owner (slow; for debugging)");
+  cmd->add_option("--grid", e.grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
+      ->check([](const std::string &g) {
+        int a, b, c;
+        char t;
+        if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
+          return "--grid must look like 2x2x1 (three positive integers), got '" + g + "'";
+        return std::string();
+      });
+  cmd->add_option("--balance", e.balance,
+                  "move the subdomain cuts so the ranks carry equal loads: time (measured "
+                  "compute time, default), bodies (advanced bodies, deterministic) or off")
+      ->check([](const std::string &m) {
+        try {
+          hardrod::parse_balance_mode(m);  // the one list of the modes' names
+          return std::string();
+        } catch (const std::invalid_argument &e) {
+          return std::string(e.what());
+        }
+      });
+  cmd->add_flag("--results-exchange", e.options.parallel.results_exchange,
+                "for tests: resolve a cluster that spans ranks only on the rank that counts "
+                "it and send its results to the others")
+      ->group("");  // not in --help
+  cmd->add_option("--balance-interval", e.options.parallel.balance.interval,
+                  "steps between load comparisons (default 1000)")
+      ->check(positive("--balance-interval"));
+}
+
+// `hardrod run SCENE`.
+struct RunArgs {
+  std::string scene_path;
+  std::vector<std::string> overrides;
+};
+
+CLI::App *add_run_command(CLI::App &app, RunArgs &r, ExecutionArgs &e) {
+  auto *run = app.add_subcommand("run", "run a scene file");
+  run->add_option("scene", r.scene_path, "scene file (TOML)")->required();
+  run->add_option("--set", r.overrides, "override a scene key, e.g. --set run.dt=1e-4")
+      ->type_name("KEY=VALUE");
+  run->add_option("--out", e.options.output_dir,
+                  "output directory (default: the scene's output.dir)");
+  run->add_flag("--force", e.options.force, "overwrite an existing run in the output directory");
+  add_execution_options(run, e);
+  return run;
+}
+
+// `hardrod resume DIR`.
+struct ResumeArgs {
+  std::string dir, checkpoint_path;
+  std::vector<std::string> overrides;
+};
+
+CLI::App *add_resume_command(CLI::App &app, ResumeArgs &r, ExecutionArgs &e) {
+  auto *resume = app.add_subcommand(
+      "resume", "continue a run from its newest checkpoint, exactly, to its (raised) step target");
+  resume->add_option("dir", r.dir, "run directory")->required();
+  resume
+      ->add_option("--set", r.overrides,
+                   "raise the target or change output intervals, e.g. --set run.steps=200000")
+      ->type_name("KEY=VALUE");
+  resume->add_option("--checkpoint", r.checkpoint_path,
+                     "checkpoint file to continue from (default: DIR/checkpoint.h5)");
+  add_execution_options(resume, e);
+  return resume;
+}
+
+// `hardrod export TRAJECTORY.h5`.
+struct ExportArgs {
+  std::string file, out;
+  long long frame = -1;
+};
+
+CLI::App *add_export_command(CLI::App &app, ExportArgs &x) {
+  auto *export_cmd = app.add_subcommand(
+      "export",
+      "write one frame of an H5MD trajectory as extended XYZ (OVITO, ASE) for a quick look");
+  export_cmd->add_option("file", x.file, "H5MD file, e.g. DIR/trajectory.h5")->required();
+  export_cmd->add_option("--frame", x.frame, "frame (< 0 counts from the end; default -1)");
+  export_cmd->add_option("--out", x.out, "output file (default: standard output)");
+  return export_cmd;
+}
+
 // `hardrod analyze DIR...`: its options fill `o` (and `no_plots`).
-void add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &no_plots) {
+CLI::App *add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &no_plots) {
   auto *analyze = app.add_subcommand(
       "analyze", "merge runs: S, P* and the Frank constants with errors, analysis.json, plots");
   analyze->add_option("dirs", o.run_dirs, "run directories")->required();
@@ -65,6 +169,89 @@ void add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &no_plo
                    "cubic and background fits: bins with k3^2 up to this, D^-2 (default 1)")
       ->check(CLI::PositiveNumber);
   analyze->add_flag("--no-plots", no_plots, "skip the PNG figures");
+  return analyze;
+}
+
+int info_command() {
+  fmt::print("{}", hardrod::build_info());
+  return 0;
+}
+
+int export_command(const ExportArgs &x) {
+  try {
+    const std::string xyz = hardrod::extended_xyz(hardrod::read_h5md_frame(x.file, x.frame));
+    if (x.out.empty()) {
+      fmt::print("{}", xyz);
+    } else {
+      std::ofstream out(x.out);
+      out << xyz;
+      if (!out) throw std::runtime_error(x.out + ": cannot write");
+    }
+  } catch (const std::exception &e) {
+    fmt::print(stderr, "hardrod export: {}\n", e.what());
+    return 2;
+  }
+  return 0;
+}
+
+int analyze_command(hardrod::AnalyzeOptions &o, bool no_plots) {
+  o.plots = !no_plots;
+  try {
+    hardrod::analyze_runs(o);
+  } catch (const std::exception &e) {
+    fmt::print(stderr, "hardrod analyze: {}\n", e.what());
+    return 2;
+  }
+  return 0;
+}
+
+// run and resume: threads and options from the flags, the stop signals, MPI, then `body`;
+// its exceptions become the exit status. Problems are found identically on every rank;
+// rank 0 reports them (`source` names the scene file or run directory).
+int simulate_command(ExecutionArgs &e, const std::string &source,
+                     const std::function<void(const hardrod::RunOptions &)> &body) {
+  hardrod::RunOptions &options = e.options;
+  if (e.threads > 0) omp_set_num_threads(e.threads);
+  options.quiet = e.quiet;
+  options.bind = !e.no_bind;
+  options.parallel.balance.mode = hardrod::parse_balance_mode(e.balance);
+  if (!e.grid.empty())
+    std::sscanf(e.grid.c_str(), "%dx%dx%d", &options.parallel.grid[0], &options.parallel.grid[1],
+                &options.parallel.grid[2]);
+  hardrod::install_stop_signals();  // before MPI start-up, so that no signal is lost
+  hardrod::Communicator comm;       // initialises MPI (a single process without mpirun)
+  try {
+    body(options);
+  } catch (const hardrod::SceneError &err) {
+    if (comm.is_root()) {
+      fmt::print(stderr, "hardrod: error in {}:\n", source);
+      for (const auto &p : err.problems()) fmt::print(stderr, "  {}\n", p);
+    }
+    return 2;
+  } catch (const hardrod::CheckpointError &err) {
+    if (comm.is_root()) fmt::print(stderr, "hardrod: cannot resume: {}\n", err.what());
+    return 2;
+  } catch (const hardrod::PhysicsError &err) {
+    if (comm.is_root()) fmt::print(stderr, "hardrod: the run stopped: {}\n", err.what());
+    return 3;
+  } catch (const hardrod::RunInterrupted &err) {
+    if (comm.is_root()) fmt::print(stderr, "hardrod: {}\n", err.what());
+    return 4;
+  }
+  return 0;
+}
+
+int run_command(const RunArgs &r, ExecutionArgs &e) {
+  return simulate_command(e, r.scene_path, [&r](const hardrod::RunOptions &options) {
+    const hardrod::Scene scene = hardrod::load_scene(r.scene_path, r.overrides);
+    hardrod::run_scene(scene, options);
+  });
+}
+
+int resume_command(const ResumeArgs &r, ExecutionArgs &e) {
+  return simulate_command(e, r.dir, [&r](const hardrod::RunOptions &options) {
+    hardrod::resume_run(r.dir, r.overrides, options, r.checkpoint_path);
+  });
 }
 
 }  // namespace
@@ -72,86 +259,17 @@ void add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &no_plo
 int main(int argc, char **argv) {
   CLI::App app{"hardrod: hard-spherocylinder liquid crystals by hard-contact rigid-body dynamics"};
   app.require_subcommand(1);
-
-  std::string scene_path;
-  std::vector<std::string> overrides;
-  hardrod::RunOptions options;
-  int threads = 0;
-  bool quiet = false;
-  auto *run = app.add_subcommand("run", "run a scene file");
-  run->add_option("scene", scene_path, "scene file (TOML)")->required();
-  run->add_option("--set", overrides, "override a scene key, e.g. --set run.dt=1e-4")
-      ->type_name("KEY=VALUE");
-  run->add_option("--out", options.output_dir,
-                  "output directory (default: the scene's output.dir)");
-  run->add_flag("--force", options.force, "overwrite an existing run in the output directory");
-  bool no_bind = false;
-  std::string grid;
-  std::string balance = "time";
-  // The options of a process that steps a simulation: the same for run and resume.
-  const auto add_execution_options = [&](CLI::App *cmd) {
-    cmd->add_option("--threads", threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
-        ->check(positive("--threads"));
-    cmd->add_flag("--quiet", quiet, "no progress output");
-    cmd->add_flag("--no-bind", no_bind, "do not bind OpenMP threads to cores");
-    cmd->add_flag("--verify", options.verify,
-                  "after every step check that every body is owned once and every shadow equals "
-                  "its owner (slow; for debugging)");
-    cmd->add_option("--grid", grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
-        ->check([](const std::string &g) {
-          int a, b, c;
-          char t;
-          if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
-            return "--grid must look like 2x2x1 (three positive integers), got '" + g + "'";
-          return std::string();
-        });
-    cmd->add_option("--balance", balance,
-                    "move the subdomain cuts so the ranks carry equal loads: time (measured "
-                    "compute time, default), bodies (advanced bodies, deterministic) or off")
-        ->check([](const std::string &m) {
-          try {
-            hardrod::parse_balance_mode(m);  // the one list of the modes' names
-            return std::string();
-          } catch (const std::invalid_argument &e) {
-            return std::string(e.what());
-          }
-        });
-    cmd->add_flag("--results-exchange", options.parallel.results_exchange,
-                  "for tests: resolve a cluster that spans ranks only on the rank that counts "
-                  "it and send its results to the others")
-        ->group("");  // not in --help
-    cmd->add_option("--balance-interval", options.parallel.balance.interval,
-                    "steps between load comparisons (default 1000)")
-        ->check(positive("--balance-interval"));
-  };
-  add_execution_options(run);
-
-  std::string resume_dir, checkpoint_path;
-  auto *resume = app.add_subcommand(
-      "resume", "continue a run from its newest checkpoint, exactly, to its (raised) step target");
-  resume->add_option("dir", resume_dir, "run directory")->required();
-  resume
-      ->add_option("--set", overrides,
-                   "raise the target or change output intervals, e.g. --set run.steps=200000")
-      ->type_name("KEY=VALUE");
-  resume->add_option("--checkpoint", checkpoint_path,
-                     "checkpoint file to continue from (default: DIR/checkpoint.h5)");
-  add_execution_options(resume);
-
-  std::string export_file, export_out;
-  long long export_frame = -1;
-  auto *export_cmd = app.add_subcommand(
-      "export",
-      "write one frame of an H5MD trajectory as extended XYZ (OVITO, ASE) for a quick look");
-  export_cmd->add_option("file", export_file, "H5MD file, e.g. DIR/trajectory.h5")->required();
-  export_cmd->add_option("--frame", export_frame, "frame (< 0 counts from the end; default -1)");
-  export_cmd->add_option("--out", export_out, "output file (default: standard output)");
-
-  app.add_subcommand("info", "print the build configuration and the machine");
-
+  ExecutionArgs execution;
+  RunArgs run_args;
+  ResumeArgs resume_args;
+  ExportArgs export_args;
   hardrod::AnalyzeOptions analyze_options;
   bool no_plots = false;
-  add_analyze_command(app, analyze_options, no_plots);
+  CLI::App *run = add_run_command(app, run_args, execution);
+  add_resume_command(app, resume_args, execution);
+  CLI::App *export_cmd = add_export_command(app, export_args);
+  CLI::App *info = app.add_subcommand("info", "print the build configuration and the machine");
+  CLI::App *analyze = add_analyze_command(app, analyze_options, no_plots);
 
   try {
     app.parse(argc, argv);
@@ -161,73 +279,9 @@ int main(int argc, char **argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 1;
   }
-
-  if (app.got_subcommand("info")) {
-    fmt::print("{}", hardrod::build_info());
-    return 0;
-  }
-  if (app.got_subcommand("export")) {
-    try {
-      const std::string xyz =
-          hardrod::extended_xyz(hardrod::read_h5md_frame(export_file, export_frame));
-      if (export_out.empty()) {
-        fmt::print("{}", xyz);
-      } else {
-        std::ofstream out(export_out);
-        out << xyz;
-        if (!out) throw std::runtime_error(export_out + ": cannot write");
-      }
-    } catch (const std::exception &e) {
-      fmt::print(stderr, "hardrod export: {}\n", e.what());
-      return 2;
-    }
-    return 0;
-  }
-  if (app.got_subcommand("analyze")) {
-    analyze_options.plots = !no_plots;
-    try {
-      hardrod::analyze_runs(analyze_options);
-    } catch (const std::exception &e) {
-      fmt::print(stderr, "hardrod analyze: {}\n", e.what());
-      return 2;
-    }
-    return 0;
-  }
-
-  if (threads > 0) omp_set_num_threads(threads);
-  options.quiet = quiet;
-  options.bind = !no_bind;
-  options.parallel.balance.mode = hardrod::parse_balance_mode(balance);
-  if (!grid.empty())
-    std::sscanf(grid.c_str(), "%dx%dx%d", &options.parallel.grid[0], &options.parallel.grid[1],
-                &options.parallel.grid[2]);
-  hardrod::install_stop_signals();  // before MPI start-up, so that no signal is lost
-  hardrod::Communicator comm;       // initialises MPI (a single process without mpirun)
-  // Problems are found identically on every rank; rank 0 reports them.
-  const bool resuming = app.got_subcommand("resume");
-  const std::string source = resuming ? resume_dir : scene_path;
-  try {
-    if (resuming) {
-      hardrod::resume_run(resume_dir, overrides, options, checkpoint_path);
-    } else {
-      const hardrod::Scene scene = hardrod::load_scene(scene_path, overrides);
-      hardrod::run_scene(scene, options);
-    }
-  } catch (const hardrod::SceneError &e) {
-    if (comm.is_root()) {
-      fmt::print(stderr, "hardrod: error in {}:\n", source);
-      for (const auto &p : e.problems()) fmt::print(stderr, "  {}\n", p);
-    }
-    return 2;
-  } catch (const hardrod::CheckpointError &e) {
-    if (comm.is_root()) fmt::print(stderr, "hardrod: cannot resume: {}\n", e.what());
-    return 2;
-  } catch (const hardrod::PhysicsError &e) {
-    if (comm.is_root()) fmt::print(stderr, "hardrod: the run stopped: {}\n", e.what());
-    return 3;
-  } catch (const hardrod::RunInterrupted &e) {
-    if (comm.is_root()) fmt::print(stderr, "hardrod: {}\n", e.what());
-    return 4;
-  }
-  return 0;
+  if (info->parsed()) return info_command();
+  if (export_cmd->parsed()) return export_command(export_args);
+  if (analyze->parsed()) return analyze_command(analyze_options, no_plots);
+  if (run->parsed()) return run_command(run_args, execution);
+  return resume_command(resume_args, execution);
 }

@@ -1,9 +1,10 @@
-// A whole run of a scene: equilibration, then production; samples every sample_interval
-// steps (order parameter, pressure of the interval, kinetic energy), a time series written
-// as it goes, a progress line, and summary.json at the end with block-averaged errors.
+// A whole run of a scene, the entry points: a fresh run, or the resume of one from its
+// checkpoint. The loop itself is RunLoop's (run_loop.hpp): equilibration, then production;
+// samples every sample_interval steps (order parameter, pressure of the interval, kinetic
+// energy), a time series written as it goes, a progress line, and summary.json at the end
+// with block-averaged errors.
 #pragma once
 
-#include <functional>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
@@ -17,8 +18,7 @@ namespace hardrod {
 struct RunOptions {
   std::string output_dir;    // empty: the scene's output.dir
   bool force = false;        // overwrite an existing run in output_dir
-  bool quiet = false;        // no progress lines (tests)
-  int progress = -1;         // -1: live line if stdout is a terminal; 0: plain lines; 1: live
+  bool quiet = false;        // no progress lines (tests); a terminal gets a live line
   ParallelOptions parallel;  // process grid
   bool bind = true;          // bind OpenMP threads to cores with hwloc (see perf/topology.hpp)
   bool verify = false;       // check body bookkeeping after every step (slow; debugging)
@@ -30,17 +30,9 @@ struct RunOptions {
 // (after writing what was measured so far).
 nlohmann::json run_scene(const Scene &scene, const RunOptions &options);
 
-// SIGTERM, SIGUSR1 and SIGINT then only set a flag: the run agrees on it in the next step's
-// reduction, finishes that step, writes a checkpoint and throws RunInterrupted. Installed by
-// main() before MPI starts, so a signal during start-up is not lost either; a second signal
-// of the same kind takes its default action (Ctrl-C twice kills at once) (batch systems send
-// SIGTERM, or a chosen signal, some time before the wall-clock limit).
-void install_stop_signals();
-int stop_signal();  // the last stop signal received, 0 if none
-std::string stop_signal_name();
-
-// A run stopped on request (SIGTERM, SIGUSR1, SIGINT) after writing a checkpoint; the
-// message says how to resume. Thrown on every rank after summary.json was written.
+// A run stopped on request (SIGTERM, SIGUSR1, SIGINT; see signals.hpp) after writing a
+// checkpoint; the message says how to resume. Thrown on every rank after summary.json was
+// written.
 class RunInterrupted : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;

@@ -1,0 +1,310 @@
+// The run's printed header, progress line, summary.json and final report (see
+// run_report.hpp). The order of the collective calls here is the same on every rank.
+#include "runtime/run_report.hpp"
+
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "perf/region_timer.hpp"
+#include "perf/topology.hpp"
+
+namespace hardrod {
+
+namespace fs = std::filesystem;
+
+std::string duration_text(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "?";
+  const auto s = static_cast<long long>(seconds + 0.5);
+  if (s >= 3600) return fmt::format("{}h{:02}m", s / 3600, (s / 60) % 60);
+  if (s >= 60) return fmt::format("{}m{:02}s", s / 60, s % 60);
+  return fmt::format("{}s", s);
+}
+
+nlohmann::json estimate_json(const Estimate &e) {
+  return {{"mean", e.mean},
+          {"error", std::isfinite(e.error) ? nlohmann::json(e.error) : nlohmann::json(nullptr)},
+          {"samples", e.samples},
+          {"converged", e.converged}};
+}
+
+Placement place_threads(Communicator &comm, bool bind) {
+  Placement p;
+  p.binding = bind_threads(bind);
+  const std::string mine = fmt::format("rank {}: {}", comm.rank(), thread_placement());
+  const std::vector<char> all = comm.gather("setup", std::vector<char>(mine.begin(), mine.end()));
+  // Rank lines are gathered as one block; split them at the "rank " prefixes.
+  const std::string text(all.begin(), all.end());
+  for (std::size_t pos = 0; pos < text.size();) {
+    const std::size_t next = text.find("rank ", pos + 1);
+    p.ranks.push_back(text.substr(pos, next == std::string::npos ? next : next - pos));
+    pos = next == std::string::npos ? text.size() : next;
+  }
+  p.topology = describe_topology().description;
+  return p;
+}
+
+void print_run_header(const Scene &scene, Simulation &sim, const fs::path &dir,
+                      const Checkpoint *from, const Placement &placement) {
+  fmt::print(
+      "hardrod: {} (L/D = {:g}), N = {}, rho* = {:.4f}, eta = {:.4f}, box {:.4f} x "
+      "{:.4f} x {:.4f}\n",
+      scene.shape.is_sphere() ? "hard spheres" : "hard spherocylinders", scene.shape.length,
+      scene.n, scene.reduced_density(), scene.packing_fraction(), scene.box.length.x,
+      scene.box.length.y, scene.box.length.z);
+  fmt::print(
+      "hardrod: dt = {:g}, {} equilibration + {} production steps, {} rank(s) x {} thread(s), "
+      "output {}\n",
+      scene.dt, scene.equilibration_steps, scene.steps, sim.comm().size(), omp_get_max_threads(),
+      dir.string());
+  if (from)
+    fmt::print("hardrod: resumed from the checkpoint at step {} (state checksum {})\n", from->step,
+               from->state_checksum);
+  if (sim.comm().size() > 1) fmt::print("hardrod: {}\n", sim.domain().describe());
+  fmt::print("hardrod: machine {}; {}\n", placement.topology, placement.binding);
+  for (const auto &p : placement.ranks) fmt::print("hardrod:   {}\n", p);
+  std::fflush(stdout);
+}
+
+std::string progress_line(const Progress &p) {
+  const double rate = p.elapsed > 0 ? static_cast<double>(p.step - p.first_step) / p.elapsed : 0.0;
+  const double eta_s = rate > 0 ? static_cast<double>(p.total_steps - p.step) / rate : 0.0;
+  return fmt::format(
+      "step {:>{}}/{} {:<5} t = {:.4g} tau  {:.3g} steps/s  ETA {:<7} S = {}  P* = {}", p.step,
+      std::to_string(p.total_steps).size(), p.total_steps,
+      p.step <= p.equilibration_steps ? "equil" : "prod", p.time, rate, duration_text(eta_s),
+      p.order_parameter ? fmt::format("{:.4f}", *p.order_parameter) : "-",
+      p.running_pressure ? fmt::format("{:.4f}", *p.running_pressure) : "-");
+}
+
+namespace {
+
+// Energy drift: relative kinetic-energy change per tau that the thermostat had to undo,
+// or, with the thermostat off, the change over the whole run (collective then).
+double energy_drift(const Scene &scene, Simulation &sim, const RunState &st) {
+  const ThermostatRecord &thermostat = sim.thermostat_record();
+  const double simulated = sim.time();
+  if (thermostat.applications > 0)
+    return thermostat.correction_sum / (static_cast<double>(thermostat.applications) *
+                                        static_cast<double>(scene.thermostat_interval) * scene.dt);
+  if (simulated > 0) return (sim.kinetic_energy() / st.kinetic_start - 1.0) / simulated;
+  return 0.0;
+}
+
+// Region timers: rank 0's, and over all ranks the slowest and the mean (load balance).
+void add_timers(nlohmann::json &summary, Simulation &sim) {
+  Communicator &comm = sim.comm();
+  const auto nregions = static_cast<std::size_t>(Region::kCount);
+  std::vector<double> mine(nregions);
+  std::vector<ExactSum> total(nregions);
+  for (std::size_t r = 0; r < nregions; ++r) {
+    mine[r] = sim.timers().seconds(static_cast<Region>(r));
+    total[r].add(mine[r]);
+  }
+  const std::vector<double> slowest = comm.max("summary", mine);
+  total = comm.sum("summary", total);
+  nlohmann::json timers, most, mean;
+  for (std::size_t r = 0; r < nregions; ++r) {
+    const char *name = region_name(static_cast<Region>(r));
+    timers[name] = mine[r];
+    most[name] = slowest[r];
+    mean[name] = total[r].value() / comm.size();
+  }
+  summary["timers"] = timers;
+  summary["timers_rank_max"] = most;
+  summary["timers_rank_mean"] = mean;
+}
+
+// Communication per step per rank, averaged over ranks, by communication step.
+nlohmann::json traffic_json(Communicator &comm, long long steps) {
+  nlohmann::json traffic = nlohmann::json::object();
+  const double rank_steps = static_cast<double>(comm.size()) * std::max<long long>(1, steps);
+  for (const char *name : {"agree", "migrate", "shadows", "contacts", "results", "observe",
+                           "kinetic_energy", "checkpoint", "balance"}) {
+    const auto it = comm.traffic().find(name);
+    const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
+    const long long messages = comm.sum("summary", c.messages);
+    const long long bytes = comm.sum("summary", c.bytes);
+    traffic[name] = {{"messages_per_step", static_cast<double>(messages) / rank_steps},
+                     {"bytes_per_step", static_cast<double>(bytes) / rank_steps}};
+  }
+  return traffic;
+}
+
+// Rank 0's threads' hardware counters, or why there are none.
+nlohmann::json counters_json(const HardwareCounters &counters) {
+  nlohmann::json hw;
+  hw["available"] = counters.available();
+  if (counters.available())
+    for (const auto &[name, value] : counters.values()) hw[name] = value;
+  else
+    hw["reason"] = counters.reason();
+  return hw;
+}
+
+nlohmann::json balance_json(Simulation &sim) {
+  const BalanceRecord &b = sim.balance_record();
+  return {{"mode", balance_mode_name(sim.balance_options().mode)},
+          {"interval", sim.balance_options().interval},
+          {"threshold", sim.balance_options().threshold},
+          {"checks", b.checks},
+          {"shifts", b.shifts},
+          {"forced_rebuilds", b.forced_rebuilds},
+          {"first_imbalance", b.first_imbalance},
+          {"last_imbalance", b.last_imbalance},
+          {"max_imbalance", b.max_imbalance},
+          {"largest_shift", b.largest_shift},
+          {"partner_reach", sim.domain().partner_reach()},
+          {"cuts", sim.domain().cuts()}};
+}
+
+// Collective: the clusters that spanned ranks, summed over ranks.
+nlohmann::json spanning_json(Simulation &sim) {
+  Communicator &comm = sim.comm();
+  const auto &s = sim.spanning_record();
+  return {{"exchanges", comm.sum("summary", s.exchanges)},
+          {"resolved", comm.sum("summary", s.resolved)},
+          {"multi_contact", comm.sum("summary", s.multi_contact)},
+          {"put_together", comm.sum("summary", s.put_together)},
+          {"from_results", comm.sum("summary", s.from_results)}};
+}
+
+}  // namespace
+
+nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &st,
+                           const RunOutcome &outcome, const Placement &placement,
+                           const HardwareCounters &counters) {
+  Communicator &comm = sim.comm();
+  const double n = static_cast<double>(scene.n);
+  const long long steps_done = sim.current_step();
+  const double production_time =
+      static_cast<double>(std::max<long long>(0, steps_done - scene.equilibration_steps)) *
+      scene.dt;
+  const double particle_steps = n * static_cast<double>(steps_done - outcome.first_step);
+  const double wall = outcome.wall_seconds;
+  const double drift = energy_drift(scene, sim, st);
+  const EquilibrationCheck s_eq = check_equilibration(st.s_series);
+  const EquilibrationCheck p_eq = check_equilibration(st.p_series);
+  const std::string status = !outcome.failure.empty()      ? "failed"
+                             : !outcome.stopped_by.empty() ? "interrupted"
+                                                           : "completed";
+  nlohmann::json summary = {
+      {"status", status},
+      {"shape", scene.shape_name},
+      {"n", scene.n},
+      {"aspect_ratio", scene.shape.length},
+      {"box", {scene.box.length.x, scene.box.length.y, scene.box.length.z}},
+      {"reduced_density", scene.reduced_density()},
+      {"packing_fraction", scene.packing_fraction()},
+      {"dt", scene.dt},
+      {"seed", scene.seed},
+      {"equilibration_steps", scene.equilibration_steps},
+      {"steps", scene.steps},
+      {"steps_done", steps_done},
+      {"simulated_time", sim.time()},
+      {"production_time", production_time},
+      {"pressure_star", estimate_json(block_average(st.p_series))},
+      {"order_parameter", estimate_json(block_average(st.s_series))},
+      {"compressibility_factor", estimate_json(block_average(st.z_series))},
+      {"equilibrated", s_eq.equilibrated && p_eq.equilibrated},
+      {"collisions", st.collisions},
+      {"collision_rate", production_time > 0 ? 2.0 * static_cast<double>(st.production_collisions) /
+                                                   (n * production_time)
+                                             : 0.0},
+      {"contacts_per_step", steps_done ? static_cast<double>(st.contacts) / steps_done : 0.0},
+      {"multi_contact_bodies", st.multi_bodies},
+      {"multi_contact_clusters", st.clusters},
+      {"solver_iterations_max", st.solver_iterations_max},
+      {"solver_unconverged", st.solver_unconverged},
+      {"solver_energy_change", st.solver_energy_change.value()},
+      {"narrow_phase_tests_per_step",
+       steps_done ? static_cast<double>(st.narrow_tests) / steps_done : 0.0},
+      {"neighbor_list_builds", st.list_builds + sim.neighbor_list().builds},
+      {"max_overlap", st.max_depth},
+      {"energy_drift", drift},
+      {"wall_seconds", wall},
+      {"setup_seconds", outcome.setup_seconds},
+      {"setup_seconds_total", st.setup_seconds + outcome.setup_seconds},
+      {"wall_seconds_total", st.wall_seconds + wall},
+      {"segments", st.segments + 1},
+      {"first_step", outcome.first_step},
+      {"particle_steps_per_second", wall > 0 ? particle_steps / wall : 0.0},
+      {"ns_per_particle_step", particle_steps > 0 ? 1e9 * wall / particle_steps : 0.0},
+      {"ranks", comm.size()},
+      {"grid", sim.domain().grid()},
+      {"balance", balance_json(sim)},
+      {"spanning_clusters", spanning_json(sim)},
+      {"threads", omp_get_max_threads()},
+      {"topology", placement.topology},
+      {"binding", placement.binding},
+      {"placement", placement.ranks},
+      {"state_checksum", sim.state_checksum()},
+  };
+  add_timers(summary, sim);
+  {  // the share of detections that went through the watches, over all ranks
+    const long long all = comm.sum("summary", sim.detections());
+    const long long watched = comm.sum("summary", sim.detections_watched());
+    summary["detect_watched_share"] = all > 0 ? static_cast<double>(watched) / all : 0.0;
+  }
+  summary["hardware_counters"] = counters_json(counters);
+  summary["communication_per_rank"] = traffic_json(comm, steps_done - outcome.first_step);
+  if (!outcome.failure.empty()) summary["error"] = outcome.failure;
+  if (!outcome.stopped_by.empty()) summary["stopped_by"] = outcome.stopped_by;
+  return summary;
+}
+
+void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json &summary,
+                      const HardwareCounters &counters, const fs::path &dir) {
+  const double particle_steps = static_cast<double>(summary["n"].get<long long>()) *
+                                static_cast<double>(summary["steps_done"].get<long long>() -
+                                                    summary["first_step"].get<long long>());
+  fmt::print("\n{}", sim.timers().table(particle_steps));
+  fmt::print("counters: {}\n", counters.report());
+  if (sim.comm().size() > 1) {
+    const BalanceRecord &b = sim.balance_record();
+    if (sim.balance_options().mode == BalanceMode::kOff)
+      fmt::print("load balance: off (--balance off)\n");
+    else
+      fmt::print(
+          "load balance ({}): {} checks, {} shifts of the cuts ({} with a rebuild of their "
+          "own); busiest rank above the mean by {:.1f} % at the first check, {:.1f} % at the "
+          "last\n",
+          balance_mode_name(sim.balance_options().mode), b.checks, b.shifts, b.forced_rebuilds,
+          100 * b.first_imbalance, 100 * b.last_imbalance);
+    const auto &sc = summary["spanning_clusters"];
+    fmt::print(
+        "clusters across ranks: {} resolved from merged contact records ({} with several "
+        "contacts, {} needing another rank's contact), {} bodies set by the results "
+        "exchange (summed over ranks)\n",
+        sc["resolved"].get<long long>(), sc["multi_contact"].get<long long>(),
+        sc["put_together"].get<long long>(), sc["from_results"].get<long long>());
+  }
+  auto pm = [](const Estimate &e) {
+    return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
+                                  : fmt::format("{:.4f} (no error: too few samples)", e.mean);
+  };
+  fmt::print("\nresults over {} production samples ({:.4g} tau):\n", st.s_series.size(),
+             summary["production_time"].get<double>());
+  fmt::print("  order parameter S        {}\n", pm(block_average(st.s_series)));
+  fmt::print("  pressure P*              {}\n", pm(block_average(st.p_series)));
+  fmt::print("  compressibility Z        {}\n", pm(block_average(st.z_series)));
+  fmt::print("  collision rate           {:.4g} per particle per tau\n",
+             summary["collision_rate"].get<double>());
+  fmt::print("  max overlap              {:.3g} D\n", st.max_depth);
+  fmt::print("  energy drift             {:.3g} per tau\n", summary["energy_drift"].get<double>());
+  fmt::print("  equilibrated             {}\n",
+             summary["equilibrated"].get<bool>()
+                 ? "yes"
+                 : "not sure (first and last third of production differ)");
+  fmt::print("  speed                    {:.1f} ns per particle-step, {:.3g} particle-steps/s\n",
+             summary["ns_per_particle_step"].get<double>(),
+             summary["particle_steps_per_second"].get<double>());
+  fmt::print("  state checksum           {}\n", summary["state_checksum"].get<std::string>());
+  fmt::print("  summary                  {}\n", (dir / "summary.json").string());
+  std::fflush(stdout);
+}
+
+}  // namespace hardrod

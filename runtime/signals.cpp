@@ -1,0 +1,37 @@
+// The stop-signal flag and its handler (see signals.hpp). The handler only stores the
+// signal number: nothing else is async-signal-safe.
+#include "runtime/signals.hpp"
+
+#include <csignal>
+
+namespace hardrod {
+
+namespace {
+volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void on_stop_signal(int signal) { g_stop_signal = signal; }
+}  // namespace
+
+void install_stop_signals() {
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  action.sa_flags = SA_RESETHAND;  // a second signal acts at once (Ctrl-C twice kills)
+  sigemptyset(&action.sa_mask);
+  for (int s : {SIGTERM, SIGUSR1, SIGINT}) sigaction(s, &action, nullptr);
+}
+
+int stop_signal() { return g_stop_signal; }
+
+std::string stop_signal_name() {
+  switch (g_stop_signal) {
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGUSR1:
+      return "SIGUSR1";
+    case SIGINT:
+      return "SIGINT";
+    default:
+      return "a signal to another rank";
+  }
+}
+
+}  // namespace hardrod

@@ -1,0 +1,19 @@
+// Stop signals: SIGTERM, SIGUSR1 and SIGINT only set a flag that the run loop polls before
+// every burst of steps; the ranks agree on it in the next step's reduction, finish that step,
+// write a checkpoint and stop (see runtime/run_loop.hpp). This file does not decide what a
+// stop does; it only records which signal arrived.
+#pragma once
+
+#include <string>
+
+namespace hardrod {
+
+// Installed by main() before MPI starts, so a signal during start-up is not lost either; a
+// second signal of the same kind takes its default action (Ctrl-C twice kills at once)
+// (batch systems send SIGTERM, or a chosen signal, some time before the wall-clock limit).
+void install_stop_signals();
+int stop_signal();  // the last stop signal received, 0 if none
+// "SIGTERM", "SIGUSR1", "SIGINT", or "a signal to another rank" when none arrived here.
+std::string stop_signal_name();
+
+}  // namespace hardrod

@@ -1,0 +1,49 @@
+// The checks a resume makes before it touches the run directory: only the step target and
+// output intervals may change, the directory must exist, and a missing checkpoint with a
+// complete previous one names the command that uses it. (Resuming itself, exactly, is
+// tests/scripts/check_checkpoint.py.)
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "runtime/resume.hpp"
+
+namespace hardrod {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(Resume, OnlyStepTargetAndOutputIntervalsMayChange) {
+  try {
+    find_resume_point("/nonexistent", {"run.steps=10", "run.dt=1e-3", "system.n=10"}, "");
+    FAIL() << "expected SceneError";
+  } catch (const SceneError &e) {
+    ASSERT_EQ(e.problems().size(), 2u);
+    EXPECT_NE(e.problems()[0].find("--set run.dt=1e-3: cannot be changed on resume"),
+              std::string::npos);
+  }
+}
+
+TEST(Resume, MissingRunDirectory) {
+  EXPECT_THROW(find_resume_point("/nonexistent/hardrod-run", {"run.steps=10"}, ""),
+               CheckpointError);
+}
+
+TEST(Resume, MissingCheckpointPointsAtThePreviousOne) {
+  const fs::path dir = fs::temp_directory_path() / "hardrod-test-resume-previous";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / kPreviousCheckpointFile) << "x";
+  try {
+    find_resume_point(dir.string(), {}, "");
+    FAIL() << "expected CheckpointError";
+  } catch (const CheckpointError &e) {
+    EXPECT_NE(std::string(e.what()).find("--checkpoint"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace hardrod
