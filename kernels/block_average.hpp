@@ -1,6 +1,6 @@
 // Error bars for a correlated time series by blocking (Flyvbjerg & Petersen, J. Chem. Phys.
 // 91, 461 (1989)); the plateau is located by the lag-1 autocorrelation test of Jonsson
-// (Phys. Rev. E 98, 043304 (2018)). SPEC.md section 5: every reported number carries an
+// (Phys. Rev. E 98, 043304 (2018)). docs/physics.md section 5: every reported number carries an
 // error estimate and an equilibration verdict. Input: one sample per sampling interval, in
 // time order. Serial and deterministic (the series is tiny next to the simulation).
 #pragma once

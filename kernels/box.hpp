@@ -1,6 +1,6 @@
 // Orthorhombic periodic box. The minimum image is taken through an integer image shift
 // (nearbyint of the scaled separation), so the same separation always maps to the same
-// image and owners, shadows and any thread count agree bit for bit (SPEC.md section 4, 7).
+// image and owners, shadows and any thread count agree bit for bit (docs/physics.md section 4, 7).
 #pragma once
 
 #include <cmath>

@@ -1,4 +1,4 @@
-// One contact between two bodies at the midpoint of a time step (SPEC.md section 4).
+// One contact between two bodies at the midpoint of a time step (docs/physics.md section 4).
 // Bodies are ordered canonically: id[i] < id[j]. The normal points from j to i. The lever
 // arms enter only through r x n, which for a frictionless contact on a capsule axis is
 // s (e x n): perpendicular to the axis, as a linear rotor requires.

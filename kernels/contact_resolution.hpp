@@ -1,5 +1,5 @@
 // Elastic, frictionless impulse resolution of the contacts of one time step
-// (SPEC.md section 4). Contacts are grouped into clusters that share bodies. A lone contact
+// (docs/physics.md section 4). Contacts are grouped into clusters that share bodies. A lone contact
 // gets the exact impulse J = -2u/k when approaching (u < 0), which conserves momentum,
 // angular momentum and kinetic energy. A cluster is solved by projected Gauss-Seidel on
 // accumulated impulses lambda >= 0 with target u' >= -u0 (approaching) or u' >= 0 (already

@@ -1,6 +1,6 @@
 // Order-independent summation: each term is rounded once to a fixed-point grid of 2^-64
 // and added as a 128-bit integer. Integer addition is associative, so the total has the
-// same bits for any thread count, rank count or summation order (SPEC.md section 7).
+// same bits for any thread count, rank count or summation order (docs/physics.md section 7).
 // Range: |term| < 2^40 (about 1e12); a larger or non-finite term poisons the sum to NaN
 // so that the caller's NaN checks stop the run instead of continuing with garbage.
 #pragma once

@@ -1,10 +1,10 @@
 // Fourier order tensor Qk_ab(k) = (V/N) sum_i (3/2 e_ia e_ib - 1/2 d_ab) exp(i k.r_i) on the
 // box's k-lattice, and the accumulator of |Qk_13|^2, |Qk_23|^2 in the director frame from
-// which frank_fit.hpp gets the Frank constants (SPEC.md section 5; Allen & Frenkel, PRA 37,
+// which frank_fit.hpp gets the Frank constants (docs/physics.md section 5; Allen & Frenkel, PRA 37,
 // 1813 (1988); seed paper, "Frank elastic constants"). Reads x, y, z, ex, ey, ez of bodies
 // [0, count). Threading: OpenMP over particle blocks whose bounds depend on the body count
-// only, partials merged in block order: the same bits for any thread count (SPEC.md 7).
-// No files or JSON here: the accumulator's file, frank.json, is runtime/frank_io.hpp's.
+// only, partials merged in block order: the same bits for any thread count (docs/physics.md section
+// 7). No files or JSON here: the accumulator's file, frank.json, is runtime/frank_io.hpp's.
 #pragma once
 
 #include <array>

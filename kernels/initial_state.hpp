@@ -1,4 +1,4 @@
-// Initial configurations and velocities (SPEC.md section 2). The lattice puts n bodies on
+// Initial configurations and velocities (docs/physics.md section 2). The lattice puts n bodies on
 // an nx x ny x nz grid filling the box, all axes along one coordinate axis. Velocities and
 // angular velocities are Gaussian at kT from counter-based draws keyed by body id (so they
 // do not depend on the decomposition), w perpendicular to the axis, total momentum zero,

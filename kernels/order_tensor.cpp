@@ -1,4 +1,4 @@
-// Order tensor, director and angular distribution of the rod axes (SPEC.md section 5).
+// Order tensor, director and angular distribution of the rod axes (docs/physics.md section 5).
 // Each thread sums its static share of bodies into a private AxisMoments / AngularCounts;
 // the partials are merged in thread order after the parallel region. Exact (integer) sums
 // make that merge order irrelevant to the bits; it is fixed anyway, by habit.

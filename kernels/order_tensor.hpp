@@ -1,9 +1,9 @@
 // Nematic order: the order tensor Q = (1/N) sum_i (3/2 e_i e_i^T - 1/2 I), its largest
-// eigenvalue S and eigenvector (the director), and the distribution of |e . n| (SPEC.md
+// eigenvalue S and eigenvector (the director), and the distribution of |e . n| (docs/physics.md
 // section 5). Reads Particles::ex, ey, ez of bodies [0, count); writes nothing.
 // Threading: OpenMP, static schedule, per-thread partial sums merged in thread order; the
 // sums are exact fixed-point (ExactSum) and the histogram integer, so the result has the
-// same bits for any thread count, rank count or body order (SPEC.md section 7).
+// same bits for any thread count, rank count or body order (docs/physics.md section 7).
 #pragma once
 
 #include <array>

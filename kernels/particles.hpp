@@ -1,6 +1,6 @@
 // Struct-of-arrays storage of the bodies a rank holds. Hot fields are separate arrays so
 // the integrator and the pair traversals stream them. Global ids give the canonical order
-// that every reduction and every contact list is sorted by (SPEC.md section 7).
+// that every reduction and every contact list is sorted by (docs/physics.md section 7).
 #pragma once
 
 #include <omp.h>

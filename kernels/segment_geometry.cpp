@@ -1,5 +1,5 @@
-// Segment-segment closest points of two capsule axes, and the contact normal (SPEC.md sec. 4).
-// Reference: Ericson, Real-Time Collision Detection 5.1.9 (clamped line solution, then
+// Segment-segment closest points of two capsule axes, and the contact normal (docs/physics.md
+// section 4). Reference: Ericson, Real-Time Collision Detection 5.1.9 (clamped line solution, then
 // alternate clamped projections), rewritten through d = e_i -+ e_j so that no cancellation is
 // divided by sin^2(theta); the body lives in the header (segment_closest_inline) so traversals
 // can inline it. Inputs: r_ij, unit axes, half lengths. Pure functions, no state: thread safe.

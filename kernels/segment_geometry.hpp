@@ -1,6 +1,6 @@
 // Closest points of two capsule axes (segment-segment distance): the narrow phase.
 // Physics: two capsules of diameter D overlap iff their axis segments are closer than D
-// (SPEC.md section 4). Pure function, no state, no threading concerns; called by every
+// (docs/physics.md section 4). Pure function, no state, no threading concerns; called by every
 // traversal. Robust for parallel / anti-parallel axes (middle of the overlap interval),
 // crossing axes (d -> 0), zero-length segments (spheres) and very long segments.
 // Reference: Ericson, Real-Time Collision Detection (2005) 5.1.9, made robust at small angles.

@@ -1,5 +1,5 @@
 // Rigid-body properties of a hard spherocylinder (capsule) of diameter D = 1, mass 1.
-// Physics: SPEC.md section 1. A capsule is a linear rotor: frictionless contact forces act
+// Physics: docs/physics.md section 1. A capsule is a linear rotor: frictionless contact forces act
 // through the axis, so only the perpendicular moment of inertia enters. L = 0 is a sphere,
 // which has no rotational degrees of freedom (inverse inertia 0, same code path).
 #pragma once
@@ -22,7 +22,7 @@ struct Shape {
     return std::numbers::pi * diameter * diameter * (diameter / 6.0 + length / 4.0);
   }
 
-  // I_perp of a uniform capsule (cylinder plus two hemispherical caps), SPEC.md section 1.
+  // I_perp of a uniform capsule (cylinder plus two hemispherical caps), docs/physics.md section 1.
   double inertia_perp() const {
     const double r = radius();
     const double vc = std::numbers::pi * r * r * length;

@@ -1,4 +1,4 @@
-// Kinetic energy and the rescaling thermostat of the paper (SPEC.md section 2): every
+// Kinetic energy and the rescaling thermostat of the paper (docs/physics.md section 2): every
 // `thermostat_interval` steps all velocities and angular velocities are scaled by one
 // factor so the kinetic energy returns to its target. Sums are exact (ExactSum), so the
 // factor has the same bits for any thread count. Element-wise scaling, OpenMP static.

@@ -1,4 +1,4 @@
-// The only code that talks to MPI (STYLE.md habit 1). A Communicator holds the world and
+// The only code that talks to MPI (docs/style.md habit 1). A Communicator holds the world and
 // the 3D Cartesian process grid, and counts every message and byte it moves, per named
 // exchange, so summary.json can report communication per step per rank. Global sums go
 // through ExactSum (integer arithmetic), so every reduction has the same bits for any

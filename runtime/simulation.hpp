@@ -1,4 +1,4 @@
-// The state of a run and one time step (SPEC.md sections 3 and 7). One time step, the
+// The state of a run and one time step (docs/physics.md sections 3 and 7). One time step, the
 // phases numbered once here for every file (advance(), runtime/simulation.cpp):
 //   1. first half: free flight of the owned bodies and shadows to the midpoint (to_midpoint,
 //      kernels/integrator.hpp), with phase 2 in the same pass when the pair list keeps watches

@@ -2,8 +2,8 @@
 // a cubic box of side 57.0512, centres uniform, axes near x, one thread; kmax = 10 (3429
 // half-space modes, the paper's -10 < k_a < 10) and the synthetic test's kmax = 4 (171).
 // Counters: ns_per_body_k = time / (N x modes), one stored mode standing for +-k. Run with
-// --benchmark_repetitions=5 for min/median/max. Budget (SPEC.md 5, one sample per 10^4
-// steps): below 1000 time steps of the paper's scene, ~1000 x 18432 x 50 ns = 0.9 s.
+// --benchmark_repetitions=5 for min/median/max. Budget (docs/physics.md section 5, one sample per
+// 10^4 steps): below 1000 time steps of the paper's scene, ~1000 x 18432 x 50 ns = 0.9 s.
 #include <benchmark/benchmark.h>
 #include <omp.h>
 

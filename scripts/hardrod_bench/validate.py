@@ -18,7 +18,7 @@ from .references import ISO_S_LIMIT, NEMATIC_P_REF, NEMATIC_S_REF, carnahan_star
 from .runner import Run, print_dry_run, run_all
 from .stats import drift_check
 
-HELP = "physics against SPEC.md section 8, pass/fail (exit 1 on failure)"
+HELP = "physics against docs/physics.md section 8, pass/fail (exit 1 on failure)"
 DESCRIPTION = ("Hard spheres (eta 0.30, 0.45) against Carnahan-Starling (0.5 %), L/D = 5 "
                "isotropic at rho* = 0.3 (S < 3/sqrt(N)) and nematic at rho* = 0.5 (S = 0.73 "
                "+/- 0.02, P* within 2 % of 6.0). Short version: a few minutes on 2 cores; "
@@ -38,7 +38,7 @@ VERDICT_RANK = {"PASS": 0, "INCONCLUSIVE": 1, "NOT CONVERGED": 2, "FAIL": 3, "ER
 
 
 def validation_cases(args):
-    """Each case: one run and the quantities judged on it (SPEC.md section 8)."""
+    """Each case: one run and the quantities judged on it (docs/physics.md section 8)."""
     long = args.long
     cases = []
     for eta in (0.30, 0.45):
@@ -71,7 +71,7 @@ def validation_cases(args):
              "reference_text": f"< 3/sqrt(N) = {limit:.4f}", "center": 0.0, "tolerance": limit,
              "tolerance_text": f"S < {limit:.4f}", "one_sided": True},
             {"name": "P*", "key": "pressure_star", "info_only": True,
-             "reference_text": "(no reference in SPEC.md; reported)"}]})
+             "reference_text": "(no reference in docs/physics.md; reported)"}]})
     cases.append({
         "name": "nematic-rho0.50",
         "title": "L/D = 5, rho* = 0.50, N = 2304 (nematic)",
@@ -214,7 +214,7 @@ def main(args):
                 notes.append(f"  - {q['quantity']}: {q['verdict']}: {q['reason']}")
     legend = ("Deviation: measured against the reference (relative). dev / combined error: "
               "(measured - reference) / sqrt(error^2 + reference error^2); Carnahan-Starling is exact as a "
-              "formula but itself 0.1-0.3 % below simulation at these densities (SPEC.md 8). Isotropic S: "
+              "formula but itself 0.1-0.3 % below simulation at these densities (docs/physics.md section 8). Isotropic S: "
               "criterion S < 3/sqrt(N); N independent random axes give <S> = 0.81/sqrt(N) (99.9th percentile "
               "1.76/sqrt(N)), and the factor of 3 leaves room for the short-range orientational correlations "
               "of the dense fluid; dev / error there is (S - limit) / error. Drift: mean of the last third of "

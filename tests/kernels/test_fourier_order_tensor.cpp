@@ -1,7 +1,7 @@
 // Fourier order tensor against a direct O(N k^3) double loop with std::complex, bit-identity
 // for 1, 2 and 4 threads, Qk(-k) = conj Qk(k), zero signal of a perfect aligned lattice, the
 // self (fourth-moment) term; and the FrankAccumulator: frame, binning, blocks, merging
-// (SPEC.md sections 5 and 7; its JSON: tests/runtime/test_frank_io.cpp). Random numbers:
+// (docs/physics.md sections 5 and 7; its JSON: tests/runtime/test_frank_io.cpp). Random numbers:
 // std::mt19937_64, fixed seeds.
 #include <gtest/gtest.h>
 #include <omp.h>

@@ -1,7 +1,7 @@
 // Order tensor, director and angular histogram against exactly known orientation sets
 // (perfect alignment, a uniform cone about a tilted director, a uniform plane), isotropic
 // samples with statistical tolerances, and bit-identity across OpenMP thread counts and body
-// orders (SPEC.md sections 5 and 7). Random numbers: std::mt19937_64 with fixed seeds and
+// orders (docs/physics.md sections 5 and 7). Random numbers: std::mt19937_64 with fixed seeds and
 // hand-written transforms, so the samples are the same with every standard library.
 #include <gtest/gtest.h>
 #include <omp.h>

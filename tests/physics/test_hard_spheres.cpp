@@ -1,4 +1,4 @@
-// Hard spheres against the Carnahan-Starling equation of state (SPEC.md section 8): the
+// Hard spheres against the Carnahan-Starling equation of state (docs/physics.md section 8): the
 // exact check of the whole pipeline (lattice start, collisions, virial, block averages).
 // N = 2197 on a 13^3 lattice; CS is itself 0.2-0.3 % low of simulation at eta = 0.45, so
 // the test asks for 0.5 % and an error bar small enough for that to mean something.

@@ -1,4 +1,4 @@
-// Scene reader: derived boxes against SPEC.md section 2, every problem reported together
+// Scene reader: derived boxes against docs/physics.md section 2, every problem reported together
 // with key and value, overrides, the "auto" lattice, the canonical round trip, the shipped
 // scene files, and a seeded mutation fuzz (parse or SceneError, never anything else).
 #include <gtest/gtest.h>
@@ -180,7 +180,7 @@ TEST(Scene, EverydayDerivesBox285256) {
 TEST(Scene, PaperDerivesBox570512) {
   const Scene s = parse_scene(rods(18432, "reduced_density = 0.5", "lattice = [8, 48, 48]"));
   EXPECT_NEAR(s.box.length.x, 57.0512, 5e-5);
-  EXPECT_NEAR(s.box.length.x / 8, 7.13, 5e-3);  // SPEC.md section 2 spacings
+  EXPECT_NEAR(s.box.length.x / 8, 7.13, 5e-3);  // docs/physics.md section 2 spacings
   EXPECT_NEAR(s.box.length.x / 48, 1.19, 5e-3);
 }
 

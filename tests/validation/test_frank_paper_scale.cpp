@@ -1,7 +1,7 @@
 // The Frank-constant chain at the paper's scale (label "long", ~minutes): N = 18432 rods in the
 // paper's 57 D box with the paper's kmax = 10, so that every fit sees its whole k range, and
 // the everyday box (N = 2304, kmax 6) with the same prescribed field: both must recover K1, K2,
-// K3 with the estimators README calls unbiased, and agree with each other.
+// K3 with the estimators docs/frank.md calls unbiased, and agree with each other.
 #include <gtest/gtest.h>
 
 #include <cmath>
