@@ -1,7 +1,7 @@
 // The state of a run and one time step (docs/physics.md sections 3 and 7). One time step, the
 // phases numbered once here for every file (advance(), runtime/simulation.cpp):
 //   1. first half: free flight of the owned bodies and shadows to the midpoint (to_midpoint,
-//      kernels/integrator.hpp), with phase 2 in the same pass when the pair list keeps watches
+//      kernels/free_flight.hpp), with phase 2 in the same pass when the pair list keeps watches
 //   2. detect: contacts at the midpoint (detect, kernels/contact_detection.hpp)
 //   3. agree: the step's one max-reduction: a pair list expired, a contact across a rank
 //      boundary, problems, a stop (agree)
