@@ -55,7 +55,7 @@ inline Rotation library_rotation(double w2, double h) {
 
 // The rotation is orthogonal to round-off, so |e| stays 1 to ~1e-16 per step; the
 // square root and division of a renormalisation (the costliest part of the half step) are
-// left to restore_rotor_constraints (integrator.hpp), every kConstraintInterval steps.
+// left to restore_rotor_constraints (rotor_constraints.hpp), every kConstraintInterval steps.
 inline void rotate_axis(double &ex, double &ey, double &ez, double wx, double wy, double wz,
                         const Rotation &r) {
   const double wdote = wx * ex + wy * ey + wz * ez;

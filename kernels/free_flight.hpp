@@ -1,6 +1,6 @@
 // Free flight for half a time step (docs/physics.md section 3): x += v dt/2, and the axis
 // turned about w by the angle |w| dt/2 (Rodrigues' rotation, exact for a free linear rotor;
-// the renormalisation is left to restore_rotor_constraints, integrator.hpp). Each body's
+// the renormalisation is left to restore_rotor_constraints, rotor_constraints.hpp). Each body's
 // motion bound grows by the largest distance any point of it can have moved,
 // (|v| + L/2 |w|) dt/2, which the neighbour list's pair checks rely on (neighbor_list.hpp).
 // Centres are never folded back into the box: every separation goes through the minimum

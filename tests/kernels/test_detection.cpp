@@ -11,7 +11,7 @@
 
 #include "kernels/cell_list.hpp"
 #include "kernels/contact_detection.hpp"
-#include "kernels/integrator.hpp"
+#include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/segment_geometry.hpp"
 

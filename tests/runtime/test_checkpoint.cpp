@@ -75,11 +75,8 @@ TEST_F(CheckpointFiles, RoundTripIsBitExactInIdOrder) {
   ASSERT_EQ(c.bodies.size(), expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
     EXPECT_EQ(c.bodies.id[i], static_cast<std::int64_t>(i));
-    for (auto [a, b] : {std::pair{&c.bodies.x, &expected.x},
-                        {&c.bodies.ez, &expected.ez},
-                        {&c.bodies.vy, &expected.vy},
-                        {&c.bodies.wz, &expected.wz}})
-      EXPECT_EQ(std::memcmp(&(*a)[i], &(*b)[i], sizeof(double)), 0) << i;
+    for (BodyField f : kStateFields)  // every state field, bit for bit
+      EXPECT_EQ(std::memcmp(&(c.bodies.*f)[i], &(expected.*f)[i], sizeof(double)), 0) << i;
   }
   EXPECT_EQ(body_hash(c.bodies), body_hash(expected));
 }

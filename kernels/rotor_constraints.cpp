@@ -1,5 +1,5 @@
 // The rotor constraints (see the header).
-#include "kernels/integrator.hpp"
+#include "kernels/rotor_constraints.hpp"
 
 #include <cmath>
 

@@ -9,12 +9,13 @@
 #include <random>
 #include <utility>
 
-#include "kernels/integrator.hpp"
+#include "kernels/free_flight.hpp"
+#include "kernels/rotor_constraints.hpp"
 
 namespace hardrod {
 namespace {
 
-TEST(Integrator, FreeRotationIsExact) {
+TEST(FreeFlight, FreeRotationIsExact) {
   Shape shape;
   Particles p;
   p.resize(1);
@@ -33,7 +34,7 @@ TEST(Integrator, FreeRotationIsExact) {
   EXPECT_NEAR(norm(p.axis(0)), 1.0, 2e-16);
 }
 
-TEST(Integrator, MotionBoundCoversEveryPointOfTheBody) {
+TEST(FreeFlight, MotionBoundCoversEveryPointOfTheBody) {
   std::mt19937_64 rng(1);
   std::normal_distribution<double> g;
   Shape shape;
@@ -61,7 +62,7 @@ TEST(Integrator, MotionBoundCoversEveryPointOfTheBody) {
   }
 }
 
-TEST(Integrator, SpheresDoNotRotate) {
+TEST(FreeFlight, SpheresDoNotRotate) {
   Shape sphere;
   sphere.length = 0.0;
   Particles p;
@@ -75,7 +76,7 @@ TEST(Integrator, SpheresDoNotRotate) {
   EXPECT_DOUBLE_EQ(p.z[0], 1.5);
 }
 
-TEST(Integrator, ReturnsTheLargestMotionBound) {
+TEST(FreeFlight, ReturnsTheLargestMotionBound) {
   Shape shape;
   Particles p;
   p.resize(3);
@@ -92,7 +93,7 @@ TEST(Integrator, ReturnsTheLargestMotionBound) {
 // The fused pass (second half of a step with the first half of the next) must give the bits
 // of two half steps, for rods and spheres, on the vector and threaded path (n above the
 // parallel threshold), including bodies whose angle takes the library rotation.
-TEST(Integrator, TwoHalfStepsInOnePassEqualTwoHalfSteps) {
+TEST(FreeFlight, TwoHalfStepsInOnePassEqualTwoHalfSteps) {
   std::mt19937_64 rng(5);
   std::normal_distribution<double> g(0.0, 1.0);
   for (const bool sphere : {false, true}) {
