@@ -13,7 +13,7 @@
 #include <stdexcept>
 
 #include "kernels/initial_state.hpp"
-#include "kernels/integrator.hpp"
+#include "kernels/rotor_constraints.hpp"
 #include "kernels/isotropic_start.hpp"
 #include "kernels/thermostat.hpp"
 #include "runtime/snapshot.hpp"
