@@ -38,7 +38,7 @@ inline std::pair<long, long> team_block(long n, int tid, int team) {
 
 struct Particles {
   std::vector<std::int64_t> id;
-  std::vector<double> x, y, z;     // centre of mass (not folded: see free_flight.hpp)
+  std::vector<double> x, y, z;     // centre of mass (not folded: see integrator.hpp)
   std::vector<double> ex, ey, ez;  // unit axis
   std::vector<double> vx, vy, vz;  // linear velocity
   std::vector<double> wx, wy, wz;  // angular velocity, perpendicular to the axis
@@ -46,7 +46,7 @@ struct Particles {
   // built (translation plus half length times rotation). Decides when a pair needs a
   // narrow-phase test and when the list expires.
   std::vector<double> motion_bound;
-  // Constants of each body's free flight (refresh_motion, free_flight.hpp): how much its
+  // Constants of each body's free flight (refresh_motion, integrator.hpp): how much its
   // motion bound grows per half step, and the two series of its half step's rotation.
   // Functions of v, w, the shape and the half step only, so they are computed when a
   // velocity changes instead of in every half step (two square roots and two series per
