@@ -2,7 +2,7 @@
 // energy, the Fourier order tensor, the angular distribution, and the running totals of
 // the step (contacts, collisions, virial, solver) since the last sample. Exact sums make
 // them the same bits for any rank and thread count, except where noted. Not here: what a
-// run does with them (runtime/run.cpp).
+// run does with them (runtime/run_loop.cpp).
 #include <fmt/format.h>
 
 #include <algorithm>
