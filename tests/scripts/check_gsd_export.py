@@ -163,6 +163,60 @@ def check_xyz(path, h5, pos_h5, axis_h5):
     print("ASE reads", len(atoms), "frames")
 
 
+def write_with_gsd_library(path, h5, inertia, with_velocities):
+    """The H5MD file's last frame written by python3-gsd's own writer, as HOOMD would."""
+    edges = box_edges(h5)
+    pos = h5["particles/all/position/value"][-1]
+    axis = h5["particles/all/axis/value"][-1]
+    image = np.floor(pos / edges + 0.5)
+    s = 1 + axis[:, 2]  # the nematic has no axis near -z
+    q = np.column_stack([s, -axis[:, 1], axis[:, 0], 0 * s])
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    snap = gsd.hoomd.Snapshot()
+    snap.configuration.box = [*edges, 0, 0, 0]
+    snap.configuration.step = int(h5["particles/all/position/step"][-1])
+    snap.particles.N = len(pos)
+    snap.particles.types = ["A"]
+    snap.particles.position = pos - image * edges
+    snap.particles.image = image.astype(np.int32)
+    snap.particles.orientation = q
+    if with_velocities:
+        w = h5["particles/all/angular_velocity/value"][-1]
+        snap.particles.velocity = h5["particles/all/velocity/value"][-1]
+        snap.particles.moment_inertia = np.tile([inertia, inertia, 0.0], (len(pos), 1))
+        snap.particles.angmom = 2 * quaternion_product(
+            np.column_stack([0 * s, inertia * w]), q)
+    with gsd.hoomd.open(str(path), "wb") as f:
+        f.append(snap)
+
+
+def check_start_from_gsd_library(hardrod, run, out, h5path):
+    """Runs of 0 steps from files python3-gsd wrote: the start is the file's state."""
+    with h5py.File(h5path, "r") as h5:
+        with gsd.hoomd.open(str(out / "t.gsd"), "rb") as ours:
+            inertia = float(ours[0].particles.moment_inertia[0, 0])
+        edges = box_edges(h5)
+        for with_velocities in (True, False):
+            name = f"lib-{int(with_velocities)}"
+            write_with_gsd_library(out / f"{name}.gsd", h5, inertia, with_velocities)
+            subprocess.run(run + ["--out", str(out / name), "--set", "run.equilibration_steps=0",
+                                  "--set", "run.steps=0", "--set", "init.configuration=\"file\"",
+                                  "--set", f"init.file=\"{out / name}.gsd\""], check=True)
+            with h5py.File(out / name / "trajectory.h5", "r") as start:
+                got = {k: start[f"particles/all/{k}/value"][0]
+                       for k in ("position", "axis", "velocity", "angular_velocity")}
+            want = {k: h5[f"particles/all/{k}/value"][-1] for k in got}
+            assert np.abs(got["position"] - want["position"]).max() < 2e-6 * edges.max() / 28
+            assert np.abs(got["axis"] - want["axis"]).max() < 1e-6
+            moved = np.abs(got["velocity"] - want["velocity"]).max()
+            if with_velocities:
+                assert moved < 1e-5, moved
+                assert np.abs(got["angular_velocity"] - want["angular_velocity"]).max() < 1e-5
+            else:  # no velocities in the file: fresh ones at init.temperature
+                assert moved > 0.1 and np.abs(got["velocity"]).max() > 0, moved
+    print("runs start from files python3-gsd wrote, with and without velocities")
+
+
 def expect_failure(cmd, code, words):
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == code and all(w in r.stderr for w in words), (cmd, r.returncode, r.stderr)
@@ -189,6 +243,7 @@ def main():
                                   "init.configuration=\"file\"", "--set",
                                   f"init.file=\"{out / 't.gsd'}\"", "--set", f"init.frame={frame}"],
                            check=True)
+        check_start_from_gsd_library(hardrod, run, out, h5path)
         # Bad input: named, and nothing written over.
         expect_failure([hardrod, "export", str(h5path), "--format", "pdb"], 1, ["--format"])
         expect_failure([hardrod, "export", str(h5path), "--format", "gsd"], 2, ["--out"])
