@@ -23,8 +23,10 @@ class FrameChunks {
   std::optional<std::vector<double>> get(const std::string &name, std::uint64_t rows,
                                          std::uint32_t columns) const {
     const gsd::IndexEntry *e = r_.find(frame_, name);
-    if (e == nullptr) e = r_.find(0, name);
-    if (e == nullptr) return std::nullopt;
+    if (e == nullptr) {
+      e = r_.find(0, name);  // frame 0's, if it has as many rows (gsd.hoomd's rule)
+      if (e == nullptr || e->n != rows) return std::nullopt;
+    }
     if (e->n != rows || e->m != columns)
       throw std::runtime_error(fmt::format("{}: frame {}: {} is {} x {}, expected {} x {}",
                                            r_.path(), frame_, name, e->n, e->m, rows, columns));

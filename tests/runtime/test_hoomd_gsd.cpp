@@ -234,6 +234,46 @@ TEST_F(GsdFiles, StartRefusesAFrameThatDoesNotFitTheSceneNamingFileAndValue) {
   }
 }
 
+TEST_F(GsdFiles, AChunkMissingFromTheFrameIsFrameZerosThenTheDefault) {
+  Scene scene = testing::small_nematic(1e-3);
+  const std::string path = (dir / "two.gsd").string();
+  const float l = static_cast<float>(scene.box.length.x);
+  const Quaternion q = quaternion_from_axis({0.6, 0.0, 0.8});
+  {
+    gsd::Writer w(path, "test", "hoomd", gsd::make_version(1, 4));
+    std::vector<float> position(3 * 288);
+    for (std::size_t i = 0; i < 288; ++i) position[3 * i] = -0.5f * l + 0.04f * i;
+    std::vector<float> orientation;
+    for (std::size_t i = 0; i < 288; ++i) orientation.insert(orientation.end(), q.begin(), q.end());
+    w.write_chunk("configuration/box", std::vector<float>{l, l, l, 0, 0, 0}, 1);
+    w.write_chunk("particles/N", std::vector<std::uint32_t>{288}, 1);
+    w.write_chunk("particles/position", position, 3);
+    w.write_chunk("particles/orientation", orientation, 4);
+    w.end_frame();
+    w.write_chunk("configuration/step", std::vector<std::uint64_t>{500}, 1);
+    w.write_chunk("particles/image", std::vector<std::int32_t>(3 * 288, 2), 3);
+    w.end_frame();
+    // Fewer particles: frame 0's orientations do not fit, the default (1, 0, 0, 0) holds.
+    w.write_chunk("particles/N", std::vector<std::uint32_t>{100}, 1);
+    w.write_chunk("particles/position", std::vector<float>(3 * 100, 1.0f), 3);
+    w.end_frame();
+    w.finish();
+  }
+  const GsdFrame f = read_gsd_frame(path, 1, scene.shape);
+  EXPECT_EQ(f.frame, 1);
+  EXPECT_EQ(f.step, 500);
+  EXPECT_FALSE(f.has_velocities);
+  EXPECT_NEAR(f.bodies.x[10], -0.5 * l + 0.4, 1e-6);  // frame 0's positions
+  EXPECT_EQ(f.image[10][1], 2);
+  EXPECT_NEAR(norm(f.bodies.axis(7) - Vec3{0.6, 0.0, 0.8}), 0.0, 1e-7);  // frame 0's axes
+  const GsdFrame first = read_gsd_frame(path, 0, scene.shape);
+  EXPECT_EQ(first.step, 0);  // the schema's default
+  EXPECT_EQ(first.image[10][1], 0);
+  const GsdFrame fewer = read_gsd_frame(path, -1, scene.shape);
+  ASSERT_EQ(fewer.bodies.size(), 100u);
+  EXPECT_EQ(fewer.bodies.axis(99).z, 1.0);
+}
+
 TEST_F(GsdFiles, ExtendedXyzHasEveryFrameTheBoxAndOvitosQuaternions) {
   Scene scene = testing::small_nematic(1e-3);
   const std::string h5 = write_run(scene);
