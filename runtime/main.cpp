@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "runtime/analyze.hpp"
 #include "runtime/checkpoint.hpp"
 #include "runtime/comm.hpp"
+#include "runtime/export.hpp"
 #include "runtime/info.hpp"
 #include "runtime/run.hpp"
 #include "runtime/scene.hpp"
@@ -131,19 +133,25 @@ CLI::App *add_resume_command(CLI::App &app, ResumeArgs &r, ExecutionArgs &e) {
   return resume;
 }
 
-// `hardrod export TRAJECTORY.h5`.
+// `hardrod export TRAJECTORY.h5 [--frame K] [--format xyz|gsd] [--out FILE]`.
 struct ExportArgs {
-  std::string file, out;
-  long long frame = -1;
+  std::string file, out, format;
+  std::optional<long long> frame;  // none: every frame
 };
 
 CLI::App *add_export_command(CLI::App &app, ExportArgs &x) {
   auto *export_cmd = app.add_subcommand(
       "export",
-      "write one frame of an H5MD trajectory as extended XYZ (OVITO, ASE) for a quick look");
+      "write an H5MD trajectory's frames as extended XYZ (ASE, OVITO) or GSD (HOOMD-blue, OVITO, "
+      "freud, MDAnalysis)");
   export_cmd->add_option("file", x.file, "H5MD file, e.g. DIR/trajectory.h5")->required();
-  export_cmd->add_option("--frame", x.frame, "frame (< 0 counts from the end; default -1)");
-  export_cmd->add_option("--out", x.out, "output file (default: standard output)");
+  export_cmd->add_option("--frame", x.frame,
+                         "only this frame (< 0 counts from the end; default: every frame)");
+  export_cmd->add_option("--out", x.out, "output file (default: standard output, XYZ only)");
+  export_cmd
+      ->add_option("--format", x.format,
+                   "xyz or gsd (default: from --out's extension, xyz if none)")
+      ->check(CLI::IsMember({"xyz", "gsd"}));
   return export_cmd;
 }
 
@@ -179,14 +187,8 @@ int info_command() {
 
 int export_command(const ExportArgs &x) {
   try {
-    const std::string xyz = hardrod::extended_xyz(hardrod::read_h5md_frame(x.file, x.frame));
-    if (x.out.empty()) {
-      fmt::print("{}", xyz);
-    } else {
-      std::ofstream out(x.out);
-      out << xyz;
-      if (!out) throw std::runtime_error(x.out + ": cannot write");
-    }
+    hardrod::export_trajectory(x.file, x.frame, x.out,
+                               hardrod::choose_export_format(x.format, x.out));
   } catch (const std::exception &e) {
     fmt::print(stderr, "hardrod export: {}\n", e.what());
     return 2;

@@ -16,6 +16,7 @@
 #include "kernels/rotor_constraints.hpp"
 #include "kernels/isotropic_start.hpp"
 #include "kernels/thermostat.hpp"
+#include "runtime/hoomd_gsd.hpp"
 #include "runtime/snapshot.hpp"
 
 namespace hardrod {
@@ -23,8 +24,11 @@ namespace hardrod {
 // The scene's initial bodies, the same on every rank: on the lattice, compressed from a
 // random isotropic state (every rank computes the same, deterministic in the seed), or
 // positions and axes from an H5MD frame (n and box must match the scene); fresh velocities.
+// A GSD frame (runtime/hoomd_gsd.hpp) brings its velocities if it has any.
 Particles initial_bodies(const Scene &scene) {
   Particles all;
+  if (scene.configuration == Configuration::kFile && is_gsd_path(scene.init_file))
+    return start_from_gsd(scene);
   if (scene.configuration == Configuration::kFile) {
     const std::string key = fmt::format("init.file = \"{}\"", scene.init_file);
     SnapshotFrame f;

@@ -210,20 +210,6 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
   return out;
 }
 
-std::string extended_xyz(const SnapshotFrame &f) {
-  const Vec3 &l = f.box.length;
-  std::string out = fmt::format(
-      "{}\nLattice=\"{:.17g} 0 0 0 {:.17g} 0 0 0 {:.17g}\" "
-      "Properties=species:S:1:pos:R:3:axis:R:3 pbc=\"T T T\" step={} frame={}\n",
-      f.bodies.size(), l.x, l.y, l.z, f.step, f.frame);
-  for (std::size_t i = 0; i < f.bodies.size(); ++i) {
-    const Vec3 x = f.box.wrap(f.bodies.position(i));
-    out += fmt::format("R {:.10f} {:.10f} {:.10f} {:.12f} {:.12f} {:.12f}\n", x.x, x.y, x.z,
-                       f.bodies.ex[i], f.bodies.ey[i], f.bodies.ez[i]);
-  }
-  return out;
-}
-
 TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
     : n_(scene.n), path_(path) {
   const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);

@@ -31,11 +31,6 @@ struct SnapshotFrame {
 // problem.
 SnapshotFrame read_h5md_frame(const std::string &path, long long frame);
 
-// Extended XYZ (OVITO, ASE): a frame as "n", a comment line with the box (Lattice=...),
-// Properties=species:S:1:pos:R:3:axis:R:3 and the step, then "R x y z ex ey ez" per body
-// (positions folded into the box). For quick looks; H5MD stays the exact record.
-std::string extended_xyz(const SnapshotFrame &frame);
-
 class TrajectoryWriter {
  public:
   // Creates (truncates) the file. Throws std::runtime_error naming the path on failure.

@@ -146,37 +146,6 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   EXPECT_NE(error_of(empty).find("the file has 0 frame(s)"), std::string::npos) << error_of(empty);
 }
 
-TEST_F(SnapshotStart, ExtendedXyzHasTheBoxAndEveryBodyFolded) {
-  Particles last;
-  const std::string path = write_run(&last);
-  const SnapshotFrame f = read_h5md_frame(path, -1);
-  EXPECT_EQ(f.frame, 1);
-  EXPECT_EQ(f.step, 200);
-  std::istringstream in(extended_xyz(f));
-  std::string line;
-  std::getline(in, line);
-  EXPECT_EQ(line, "288");
-  std::getline(in, line);
-  EXPECT_NE(line.find("Lattice=\""), std::string::npos) << line;
-  EXPECT_NE(line.find("Properties=species:S:1:pos:R:3:axis:R:3"), std::string::npos) << line;
-  EXPECT_NE(line.find("step=200"), std::string::npos) << line;
-  std::size_t bodies = 0;
-  while (std::getline(in, line)) {
-    std::istringstream row(line);
-    std::string species;
-    double x, y, z, ex, ey, ez;
-    ASSERT_TRUE(row >> species >> x >> y >> z >> ex >> ey >> ez) << line;
-    EXPECT_EQ(species, "R");
-    for (double c : {x, y, z}) {
-      EXPECT_GE(c, 0.0);
-      EXPECT_LT(c, f.box.length.x);
-    }
-    EXPECT_NEAR(ex, last.ex[bodies], 1e-12);
-    ++bodies;
-  }
-  EXPECT_EQ(bodies, 288u);
-}
-
 TEST(SceneInit, ConfigurationKeysAreCheckedAndNamed) {
   const std::string base =
       "[system]\nn = 288\nreduced_density = 0.5\naspect_ratio = 5.0\n[run]\ndt = 1e-4\n"
