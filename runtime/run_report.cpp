@@ -11,6 +11,7 @@
 
 #include "perf/region_timer.hpp"
 #include "perf/topology.hpp"
+#include "runtime/provenance.hpp"
 
 namespace hardrod {
 
@@ -243,6 +244,7 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
       {"placement", placement.ranks},
       {"state_checksum", sim.state_checksum()},
   };
+  summary.update(provenance_json(agreed_provenance(comm)));
   add_timers(summary, sim);
   {  // the share of detections that went through the watches, over all ranks
     const long long all = comm.sum("summary", sim.detections());
