@@ -23,6 +23,7 @@
 #include "runtime/comm.hpp"
 #include "runtime/export.hpp"
 #include "runtime/info.hpp"
+#include "runtime/provenance.hpp"
 #include "runtime/run.hpp"
 #include "runtime/scene.hpp"
 #include "runtime/signals.hpp"
@@ -259,6 +260,7 @@ int resume_command(const ResumeArgs &r, ExecutionArgs &e) {
 }  // namespace
 
 int main(int argc, char **argv) {
+  hardrod::record_command_line(argc, argv);  // summary.json and trajectory.h5 name the call
   CLI::App app{"hardrod: hard-spherocylinder liquid crystals by hard-contact rigid-body dynamics"};
   app.require_subcommand(1);
   ExecutionArgs execution;

@@ -6,8 +6,21 @@
 
 namespace hardrod {
 
+namespace {
+
+// The scene as run: output.dir is the directory the run writes (--out, or resume's DIR), so
+// that scene.toml and the checkpoint's copy say where the run actually went.
+Scene as_run(const Scene &scene, const RunOptions &options) {
+  Scene s = scene;
+  if (!options.output_dir.empty()) s.output_dir = options.output_dir;
+  return s;
+}
+
+}  // namespace
+
 nlohmann::json run_scene(const Scene &scene, const RunOptions &options) {
-  return RunLoop(scene, options, nullptr).run();
+  const Scene s = as_run(scene, options);
+  return RunLoop(s, options, nullptr).run();
 }
 
 nlohmann::json resume_run(const std::string &dir, const std::vector<std::string> &overrides,
@@ -15,7 +28,8 @@ nlohmann::json resume_run(const std::string &dir, const std::vector<std::string>
   const ResumePoint from = find_resume_point(dir, overrides, checkpoint_path);
   RunOptions o = options;
   o.output_dir = dir;
-  return RunLoop(from.scene, o, &from.checkpoint).run();
+  const Scene s = as_run(from.scene, o);
+  return RunLoop(s, o, &from.checkpoint).run();
 }
 
 }  // namespace hardrod

@@ -11,6 +11,7 @@
 
 #include "perf/region_timer.hpp"
 #include "perf/topology.hpp"
+#include "runtime/provenance.hpp"
 
 namespace hardrod {
 
@@ -243,6 +244,7 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
       {"placement", placement.ranks},
       {"state_checksum", sim.state_checksum()},
   };
+  summary.update(provenance_json(agreed_provenance(comm)));
   add_timers(summary, sim);
   {  // the share of detections that went through the watches, over all ranks
     const long long all = comm.sum("summary", sim.detections());
@@ -256,32 +258,12 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
   return summary;
 }
 
-void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json &summary,
-                      const HardwareCounters &counters, const fs::path &dir) {
-  const double particle_steps = static_cast<double>(summary["n"].get<long long>()) *
-                                static_cast<double>(summary["steps_done"].get<long long>() -
-                                                    summary["first_step"].get<long long>());
-  fmt::print("\n{}", sim.timers().table(particle_steps));
-  fmt::print("counters: {}\n", counters.report());
-  if (sim.comm().size() > 1) {
-    const BalanceRecord &b = sim.balance_record();
-    if (sim.balance_options().mode == BalanceMode::kOff)
-      fmt::print("load balance: off (--balance off)\n");
-    else
-      fmt::print(
-          "load balance ({}): {} checks, {} shifts of the cuts ({} with a rebuild of their "
-          "own); busiest rank above the mean by {:.1f} % at the first check, {:.1f} % at the "
-          "last\n",
-          balance_mode_name(sim.balance_options().mode), b.checks, b.shifts, b.forced_rebuilds,
-          100 * b.first_imbalance, 100 * b.last_imbalance);
-    const auto &sc = summary["spanning_clusters"];
-    fmt::print(
-        "clusters across ranks: {} resolved from merged contact records ({} with several "
-        "contacts, {} needing another rank's contact), {} bodies set by the results "
-        "exchange (summed over ranks)\n",
-        sc["resolved"].get<long long>(), sc["multi_contact"].get<long long>(),
-        sc["put_together"].get<long long>(), sc["from_results"].get<long long>());
-  }
+namespace {
+
+// The physics: what the run measured, with errors; a failed run says so first.
+void print_results(const RunState &st, const nlohmann::json &summary, const fs::path &dir) {
+  if (summary["status"] == "failed")
+    fmt::print("\nFAILED: {}\n", summary.value("error", std::string("(no message)")));
   auto pm = [](const Estimate &e) {
     return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
                                   : fmt::format("{:.4f} (no error: too few samples)", e.mean);
@@ -304,6 +286,41 @@ void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json 
              summary["particle_steps_per_second"].get<double>());
   fmt::print("  state checksum           {}\n", summary["state_checksum"].get<std::string>());
   fmt::print("  summary                  {}\n", (dir / "summary.json").string());
+}
+
+// The parallel bookkeeping of a run on several ranks: load balance, clusters across ranks.
+void print_parallel(Simulation &sim, const nlohmann::json &summary) {
+  const BalanceRecord &b = sim.balance_record();
+  if (sim.balance_options().mode == BalanceMode::kOff)
+    fmt::print("load balance: off (--balance off)\n");
+  else
+    fmt::print(
+        "load balance ({}): {} checks, {} shifts of the cuts ({} with a rebuild of their "
+        "own); busiest rank above the mean by {:.1f} % at the first check, {:.1f} % at the "
+        "last\n",
+        balance_mode_name(sim.balance_options().mode), b.checks, b.shifts, b.forced_rebuilds,
+        100 * b.first_imbalance, 100 * b.last_imbalance);
+  const auto &sc = summary["spanning_clusters"];
+  fmt::print(
+      "clusters across ranks: {} resolved from merged contact records ({} with several "
+      "contacts, {} needing another rank's contact), {} bodies set by the results "
+      "exchange (summed over ranks)\n",
+      sc["resolved"].get<long long>(), sc["multi_contact"].get<long long>(),
+      sc["put_together"].get<long long>(), sc["from_results"].get<long long>());
+}
+
+}  // namespace
+
+// The physics first (what the user ran for), then where the time went.
+void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json &summary,
+                      const HardwareCounters &counters, const fs::path &dir) {
+  print_results(st, summary, dir);
+  const double particle_steps = static_cast<double>(summary["n"].get<long long>()) *
+                                static_cast<double>(summary["steps_done"].get<long long>() -
+                                                    summary["first_step"].get<long long>());
+  fmt::print("\n{}", sim.timers().table(particle_steps));
+  fmt::print("counters: {}\n", counters.report());
+  if (sim.comm().size() > 1) print_parallel(sim, summary);
   std::fflush(stdout);
 }
 

@@ -64,8 +64,9 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
                            const RunOutcome &outcome, const Placement &placement,
                            const HardwareCounters &counters);
 
-// The report printed at the end (rank 0, unless quiet): timers, counters, the parallel
-// bookkeeping and the results with errors.
+// The report printed at the end (rank 0, unless quiet): the results with errors (led by
+// FAILED and the reason for a failed run), then the timers, the counters and the parallel
+// bookkeeping.
 void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json &summary,
                       const HardwareCounters &counters, const std::filesystem::path &dir);
 

@@ -1,13 +1,23 @@
 // Trajectory snapshots in H5MD 1.1 (HDF5), readable by h5py and MDAnalysis:
-//   /h5md (version 1.1, author, creator)
-//   /particles/all/box (dimension 3, boundary periodic, edges [3])
+//   /h5md (version 1.1, author, creator name and version)
 //   /particles/all/{position, velocity, axis, angular_velocity}/{step, time, value[T][N][3]}
-//   /particles/all/id/value[N]  (bodies in id order in every frame)
-//   /parameters (attributes: aspect_ratio, diameter, n)
+//     positions unwrapped (continuous over the run, see docs/units.md), bodies in id order
+//   /particles/all/box (dimension 3, boundary periodic) with edges/{step, time, value[T][3][3]}
+//     (a diagonal matrix per frame: the form MDAnalysis reads; step and time are position's)
+//   /particles/all/id/value[N]
+//   /particles/wrapped/{position, image}: positions folded into [0, l) and the integer image
+//     counts, position + image * edges = /particles/all/position to round-off
+//   /parameters (attributes: aspect_ratio, diameter, n, shape, and the provenance: version,
+//     git_commit, command_line, started_at, host)
+// Units are hardrod's reduced ones (D, m, kT, tau), named in /h5md/modules/units and on each
+// value and time dataset as a `reduced_unit` attribute ("D", "tau", "D tau-1", "tau-1"); no
+// H5MD `unit` attribute, which MDAnalysis rejects unless it is a unit it knows.
 // Frames are appended to one file (extensible, chunked datasets). Written by rank 0 from the
-// bodies gathered in id order.
+// bodies gathered in id order. Files written before the box was time-dependent (edges[3], no
+// /particles/wrapped) are still read, and a resume goes on writing them in their own layout.
 #pragma once
 
+#include <array>
 #include <string>
 
 #include "kernels/box.hpp"
@@ -17,7 +27,8 @@
 namespace hardrod {
 
 // One frame of an H5MD file (hardrod's trajectory.h5, or any H5MD file with
-// /particles/all/position, axis and box/edges): positions and axes in id order.
+// /particles/all/position, axis and box/edges, fixed or time-dependent): positions and axes
+// in id order.
 struct SnapshotFrame {
   Particles bodies;  // ids 0..n-1; velocities zero
   long long step = 0;
@@ -51,6 +62,9 @@ class TrajectoryWriter {
   long long file_ = -1;  // hid_t, kept opaque so only snapshot.cpp includes hdf5.h
   long long n_ = 0;
   long long frames_ = 0;
+  std::array<double, 3> edges_{};  // the box, for the time-dependent box/edges
+  bool box_series_ = false;        // box/edges is time-dependent (false: an older file)
+  bool wrapped_ = false;           // /particles/wrapped is present (false: an older file)
   std::string path_;
 };
 

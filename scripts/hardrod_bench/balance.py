@@ -54,7 +54,7 @@ def main(args):
     shutil.copy(seed.out / "trajectory.h5", start)
     with h5py.File(start, "r+") as f:  # every centre's x folded into the lower half
         pos = f["particles/all/position/value"]
-        side = f["particles/all/box/edges"][0]
+        side = f["particles/all/box/edges/value"][-1][0][0]  # the last frame's box, x edge
         frame = pos[-1]
         frame[:, 0] = (frame[:, 0] % side) * 0.5
         pos[-1] = frame

@@ -53,7 +53,7 @@ def main():
         shutil.copy(tmp / "seed/trajectory.h5", start)
         with h5py.File(start, "r+") as f:
             pos = f["particles/all/position/value"]
-            side = f["particles/all/box/edges"][0]
+            side = f["particles/all/box/edges/value"][-1][0][0]  # the last frame's box, x edge
             frame = pos[-1]
             frame[:, 0] = (frame[:, 0] % side) * 0.5
             pos[-1] = frame

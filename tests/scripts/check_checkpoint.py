@@ -42,7 +42,7 @@ NOT_PHYSICS = {
     "timers", "timers_rank_max", "timers_rank_mean", "hardware_counters", "communication_per_rank", "placement", "binding",
     "topology", "threads", "ranks", "grid", "segments", "first_step",
     "narrow_phase_tests_per_step", "neighbor_list_builds", "status", "stopped_by", "detect_watched_share",
-    "balance", "spanning_clusters",
+    "balance", "spanning_clusters", "command_line", "started_at",
 }
 
 
@@ -140,13 +140,16 @@ def compare_runs(a, b, trajectory=True, same_ranks=True):
             problems.append(f"{name} differs")
     if trajectory:
         with h5py.File(a / "trajectory.h5", "r") as fa, h5py.File(b / "trajectory.h5", "r") as fb:
-            for element in ("position", "velocity", "axis", "angular_velocity"):
-                for series in ("step", "time", "value"):
-                    key = f"particles/all/{element}/{series}"
-                    if not np.array_equal(fa[key][()], fb[key][()]):
-                        problems.append(f"trajectory {key} differs "
-                                        f"(steps {fa[f'particles/all/{element}/step'][()]} vs "
-                                        f"{fb[f'particles/all/{element}/step'][()]})")
+            keys = [f"particles/all/{element}/{series}"
+                    for element in ("position", "velocity", "axis", "angular_velocity")
+                    for series in ("step", "time", "value")]
+            keys += ["particles/all/box/edges/value", "particles/wrapped/position/value",
+                     "particles/wrapped/image/value"]
+            steps = "particles/all/position/step"
+            for key in keys:
+                if not np.array_equal(fa[key][()], fb[key][()]):
+                    problems.append(f"trajectory {key} differs "
+                                    f"(steps {fa[steps][()]} vs {fb[steps][()]})")
     if problems:
         sys.exit("FAIL: " + str(b) + " differs from " + str(a) + ":\n  " + "\n  ".join(problems))
     print(f"ok: {b.name} equals {a.name} (state {sb['state_checksum']}, "

@@ -3,7 +3,8 @@
 
 The last frame must hash, byte for byte, to the run's state_checksum (FNV-1a over ids,
 positions, axes, velocities and angular velocities in id order, as summary.json computes
-it), and step, time, box, N and the H5MD layout must be what the run wrote.
+it), and step, time, box, N, the units, the wrapped positions with their image counts, the
+provenance and the H5MD layout must be what the run wrote.
 """
 import json
 import pathlib
@@ -14,6 +15,7 @@ import sys
 import tempfile
 
 import h5py
+import numpy as np
 
 
 def fnv1a(frame_fields, n):
@@ -52,8 +54,40 @@ def main():
             assert steps == [400, 800], f"steps {steps}"
             times = list(all_["position/time"][:])
             assert abs(times[-1] - 800 * summary["dt"]) < 1e-12, f"time {times}"
-            edges = list(all_["box/edges"][:])
-            assert all(abs(a - b) < 1e-12 for a, b in zip(edges, summary["box"])), "box"
+            # The box is time-dependent (MDAnalysis reads only that): a diagonal matrix per
+            # frame, sharing position's step and time.
+            box = all_["box/edges/value"]
+            assert box.shape == (2, 3, 3), f"box shape {box.shape}"
+            for frame in box[:]:
+                expected = [[summary["box"][r] if r == c else 0.0 for c in range(3)]
+                            for r in range(3)]
+                assert (frame == expected).all(), f"box {frame}"
+            assert list(all_["box/edges/step"][:]) == steps, "box steps"
+            # Units: reduced (docs/units.md), as reduced_unit; no H5MD `unit`, which
+            # MDAnalysis rejects unless it knows it.
+            units = {name: all_[name + "/value"].attrs.get("reduced_unit")
+                     for name in ("position", "velocity", "axis", "angular_velocity")}
+            units["time"] = all_["position/time"].attrs.get("reduced_unit")
+            units["box"] = all_["box/edges/value"].attrs.get("reduced_unit")
+            expected_units = {"position": "D", "velocity": "D tau-1", "axis": None,
+                              "angular_velocity": "tau-1", "time": "tau", "box": "D"}
+            decoded = {k: v.decode() if isinstance(v, bytes) else v for k, v in units.items()}
+            assert decoded == expected_units, f"units {decoded}"
+            assert "unit" not in all_["position/value"].attrs, "an H5MD unit MDAnalysis rejects"
+            assert f["h5md/modules/units"].attrs["system"].startswith("reduced: length D")
+            # Wrapped positions and image counts give the unwrapped ones back.
+            wrapped = f["particles/wrapped/position/value"][:]
+            image = f["particles/wrapped/image/value"][:]
+            side = np.array(summary["box"])
+            assert ((wrapped >= 0) & (wrapped < side)).all(), "wrapped positions outside the box"
+            assert np.allclose(wrapped + image * side, pos[:], rtol=0, atol=1e-9), "image counts"
+            assert list(f["particles/wrapped/position/step"][:]) == steps, "wrapped steps"
+            # Provenance: the same as summary.json's.
+            params = f["parameters"].attrs
+            for key in ("version", "git_commit", "command_line", "started_at", "host"):
+                value = params[key]
+                value = value.decode() if isinstance(value, bytes) else value
+                assert value == summary[key], f"parameters {key}: {value!r} vs {summary[key]!r}"
             assert list(all_["id/value"][:]) == list(range(n)), "ids"
             last = [all_[name + "/value"][-1] for name in ("position", "axis", "velocity",
                                                              "angular_velocity")]
