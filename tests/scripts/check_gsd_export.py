@@ -33,9 +33,13 @@ def quaternion_product(a, b):
 
 
 def box_edges(h5):
-    """The box: a fixed edges dataset, or the last of a time-dependent one (H5MD allows both)."""
+    """The box edges: a fixed dataset, or the last frame of a time-dependent one (H5MD allows
+    both; hardrod writes a diagonal 3 x 3 matrix per frame, the form MDAnalysis reads)."""
     edges = h5["particles/all/box/edges"]
-    return np.array(edges["value"][-1] if isinstance(edges, h5py.Group) else edges[:])
+    if not isinstance(edges, h5py.Group):
+        return np.array(edges[:])
+    last = np.array(edges["value"][-1])
+    return np.diag(last) if last.ndim == 2 else last  # a 3 x 3 matrix per frame, or 3 edges
 
 
 def parse_extended_xyz(text):
