@@ -25,10 +25,12 @@ namespace {
 constexpr long long kBurst = 64;
 
 // Steps from `now` to the next step s with (s - origin) a multiple of `interval`, either side
-// of origin; at least one step (kBurst for no interval).
+// of origin; at least one step (kBurst for no interval). No intermediate exceeds `interval`
+// or |now - origin| (the scene bounds both), so no interval overflows it.
 long long steps_to(long long now, long long interval, long long origin) {
   if (interval <= 0) return kBurst;
-  const long long into = ((now - origin) % interval + interval) % interval;
+  long long into = (now - origin) % interval;
+  if (into < 0) into += interval;
   return interval - into;
 }
 
