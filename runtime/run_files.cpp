@@ -85,6 +85,7 @@ RunFiles open_run_files(Communicator &comm, const fs::path &dir, const Scene &sc
   if (comm.is_root()) {
     try {
       if (resumed) {
+        files.lock = std::make_unique<RunLock>(dir);
         write_atomically(dir / "scene.toml", scene_to_toml(scene));
         files.series =
             std::make_unique<TimeSeries>(dir / "timeseries.csv", resumed->timeseries_bytes);
@@ -92,6 +93,7 @@ RunFiles open_run_files(Communicator &comm, const fs::path &dir, const Scene &sc
             reopen_trajectory(dir / "trajectory.h5", scene, resumed->trajectory_frames, step);
       } else {
         prepare_output_dir(dir, force);
+        files.lock = std::make_unique<RunLock>(dir);
         write_atomically(dir / "scene.toml", scene_to_toml(scene));
         files.series = std::make_unique<TimeSeries>(dir / "timeseries.csv", -1);
         files.trajectory =
