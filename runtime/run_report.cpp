@@ -24,8 +24,9 @@ std::string duration_text(double seconds) {
   return fmt::format("{}s", s);
 }
 
+// No samples, no result: null, never a 0 that reads like a measurement.
 nlohmann::json estimate_json(const Estimate &e) {
-  return {{"mean", e.mean},
+  return {{"mean", e.samples > 0 ? nlohmann::json(e.mean) : nlohmann::json(nullptr)},
           {"error", std::isfinite(e.error) ? nlohmann::json(e.error) : nlohmann::json(nullptr)},
           {"samples", e.samples},
           {"converged", e.converged}};
@@ -283,6 +284,7 @@ void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json 
         sc["put_together"].get<long long>(), sc["from_results"].get<long long>());
   }
   auto pm = [](const Estimate &e) {
+    if (e.samples == 0) return std::string("none (no production samples)");
     return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
                                   : fmt::format("{:.4f} (no error: too few samples)", e.mean);
   };
