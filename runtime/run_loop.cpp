@@ -100,6 +100,10 @@ nlohmann::json RunLoop::run() {
   } catch (const PhysicsError &e) {
     failure_ = e.what();
     if (!quiet_ && live_) fmt::print("\n");
+  } catch (const CheckpointError &e) {  // thrown on every rank alike
+    failure_ = e.what();
+    output_failed_ = true;
+    if (!quiet_ && live_) fmt::print("\n");
   }
   counters_.stop();
   return finish();
@@ -273,9 +277,10 @@ void RunLoop::print_progress(bool final_line) {
 // exception that says how the run ended, if it did not complete.
 nlohmann::json RunLoop::finish() {
   Simulation &sim = *sim_;
-  const bool root = sim.comm().is_root();
-  // The final state, also after a physics failure (for a post-mortem).
-  if (last_frame_step_ != sim.current_step() && stopped_by_.empty()) write_frame();
+  // The final state, also after a physics failure (for a post-mortem); not after a failed
+  // write (the disk is full).
+  if (last_frame_step_ != sim.current_step() && stopped_by_.empty() && !output_failed_)
+    write_frame();
   RunOutcome outcome;
   outcome.failure = failure_;
   outcome.stopped_by = stopped_by_;
@@ -283,13 +288,19 @@ nlohmann::json RunLoop::finish() {
   outcome.wall_seconds = sim.comm().max("summary", {seconds_since_start()})[0];
   outcome.setup_seconds = setup_seconds_;
   nlohmann::json summary = run_summary(scene_, sim, st_, outcome, placement_, counters_);
-  if (frank_) {
-    save_frank_accumulator(*frank_, (dir_ / "frank.json").string());
-    summary["frank_samples"] = frank_->samples();
+  if (frank_) summary["frank_samples"] = frank_->samples();
+  try {
+    write_results(summary);
+  } catch (const std::exception &e) {
+    if (!output_failed_) throw;
+    failure_ += fmt::format("; the summary was not written either ({})", e.what());
   }
-  if (root) write_angular(dir_, st_.angular);
-  if (root) write_atomically(dir_ / "summary.json", summary.dump(2) + "\n");
   if (!quiet_) print_run_report(sim, st_, summary, counters_, dir_);
+  if (output_failed_)
+    throw RunOutputError(
+        fmt::format("{}; the previous checkpoint is kept: once there is room, "
+                    "continue with: hardrod resume {}",
+                    failure_, dir_.string()));
   if (!failure_.empty()) throw PhysicsError(failure_);
   if (!stopped_by_.empty())
     throw RunInterrupted(fmt::format(
@@ -297,6 +308,14 @@ nlohmann::json RunLoop::finish() {
         stopped_by_, sim.current_step(), total_steps_, (dir_ / kCheckpointFile).string(),
         dir_.string()));
   return summary;
+}
+
+// frank.json (rank 0 holds the accumulator), angular.json and summary.json.
+void RunLoop::write_results(const nlohmann::json &summary) {
+  if (frank_) save_frank_accumulator(*frank_, (dir_ / "frank.json").string());
+  if (!sim_->comm().is_root()) return;
+  write_angular(dir_, st_.angular);
+  write_atomically(dir_ / "summary.json", summary.dump(2) + "\n");
 }
 
 double RunLoop::seconds_since_start() const {

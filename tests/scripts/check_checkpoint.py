@@ -465,6 +465,43 @@ def hostile_directories(r: Runner, d: pathlib.Path):
                        text=True, timeout=60)
     assert p.returncode != 0 and "no production samples" in p.stderr, (p.returncode, p.stderr)
     print(f"ok: no production samples: null results; analyze: {p.stderr.strip()[:150]}")
+    full_disk(r, d, target)
+
+
+def full_disk(r: Runner, d: pathlib.Path, target: str):
+    """A disk that fills up before a checkpoint: one line naming "No space left on device",
+    summary.json with status failed, no checkpoint.h5.tmp, the previous checkpoint intact;
+    with room again the run resumes to the uninterrupted state. Needs a small tmpfs (root)."""
+    mount = r.work / "small-disk"
+    mount.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4M", "tmpfs", str(mount)],
+                      capture_output=True).returncode != 0:
+        print("skip: full disk: cannot mount a tmpfs here (needs root)")
+        return
+    try:
+        run = mount / "run"
+        shutil.copytree(d, run, ignore=shutil.ignore_patterns("checkpoint.h5"))
+        (run / "checkpoint.h5").write_bytes((d / "checkpoint.prev.h5").read_bytes())  # step 600
+        (run / "checkpoint.prev.h5").unlink()
+        kept = (run / "checkpoint.h5").read_bytes()
+        free = shutil.disk_usage(mount).free
+        filler = mount / "filler"
+        filler.write_bytes(b"\0" * max(0, free - 120 * 1024))  # room for the rows, not a checkpoint
+        p = r.run(["resume", str(run), "--set", "run.steps=1200"], expect=None)
+        lines = p.stderr.strip().splitlines()
+        assert p.returncode == 2 and len(lines) == 1 and "No space left on device" in lines[0], \
+            (p.returncode, p.stderr)
+        assert not (run / "checkpoint.h5.tmp").exists()
+        assert (run / "checkpoint.h5").read_bytes() == kept
+        s = summary(run)
+        assert s["status"] == "failed" and "No space left on device" in s["error"], s.get("error")
+        print(f"ok: full disk: {lines[0][:150]}")
+        filler.unlink()
+        r.run(["resume", str(run), "--set", "run.steps=1200"])
+        assert summary(run)["state_checksum"] == target
+        print("ok: with room again the run resumes to the uninterrupted state")
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
 
 
 def main():
