@@ -146,6 +146,28 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   EXPECT_NE(error_of(empty).find("the file has 0 frame(s)"), std::string::npos) << error_of(empty);
 }
 
+// A frame whose bodies overlap is refused at the start, naming the pair and the depth, not
+// run at step 1 into "try a smaller run.dt".
+TEST_F(SnapshotStart, OverlappingFrameIsRefusedAtTheStart) {
+  Particles last;
+  Scene scene = testing::small_nematic(1e-3);
+  scene.configuration = Configuration::kFile;
+  scene.init_file = write_run(&last);
+  scene.init_frame = 0;
+  EXPECT_EQ(error_of(scene), "");  // the lattice touches nowhere
+  // The same frame with one body moved half a diameter beside another.
+  Particles bodies = Simulation(scene).gather_bodies();
+  bodies.x[7] = bodies.x[3];
+  bodies.y[7] = bodies.y[3] + 0.5;
+  bodies.z[7] = bodies.z[3];
+  scene.init_file = (dir / "overlapping.h5").string();
+  TrajectoryWriter(scene.init_file, scene).append(bodies, 0, 0.0);
+  const std::string error = error_of(scene);
+  EXPECT_NE(error.find("frame 0: the start configuration overlaps: bodies "), std::string::npos)
+      << error;
+  EXPECT_NE(error.find("more than run.max_overlap = 0.05 D"), std::string::npos) << error;
+}
+
 TEST_F(SnapshotStart, ExtendedXyzHasTheBoxAndEveryBodyFolded) {
   Particles last;
   const std::string path = write_run(&last);
