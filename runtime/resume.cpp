@@ -124,7 +124,7 @@ ResumePoint find_resume_point(const std::string &dir, const std::vector<std::str
     throw SceneError({fmt::format(
         "run.steps = {}: the checkpoint is at step {} already (equilibration {} + production "
         "{} steps); raise run.steps to at least {}",
-        scene.steps, c.step, scene.equilibration_steps, scene.steps,
+        scene.steps, c.step, scene.equilibration_steps, c.step - scene.equilibration_steps,
         c.step - scene.equilibration_steps)});
   return {std::move(c), std::move(scene), std::move(note)};
 }

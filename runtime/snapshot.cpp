@@ -2,9 +2,12 @@
 
 #include <fmt/format.h>
 #include <hdf5.h>
+#include <unistd.h>
 
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <vector>
 
@@ -135,8 +138,12 @@ std::vector<T> read_all(hid_t file, const std::string &name, hid_t type, hsize_t
 
 SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  if (H5Fis_hdf5(path.c_str()) <= 0)
-    throw std::runtime_error(fmt::format("{}: not a readable HDF5 file", path));
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    const int missing = access(path.c_str(), R_OK) != 0 ? errno : 0;  // say why, if the OS can
+    throw std::runtime_error(fmt::format(
+        "{}: {}", path,
+        missing ? std::strerror(missing) : "not an HDF5 file (damaged or another format)"));
+  }
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (file < 0) throw std::runtime_error(fmt::format("{}: cannot open", path));
   struct Closer {

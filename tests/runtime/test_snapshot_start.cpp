@@ -111,12 +111,13 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   missing.init_file = (dir / "absent.h5").string();
   EXPECT_NE(error_of(missing).find("init.file = \"" + missing.init_file + "\""), std::string::npos)
       << error_of(missing);
-  EXPECT_NE(error_of(missing).find("not a readable HDF5 file"), std::string::npos);
+  EXPECT_NE(error_of(missing).find(": No such file or directory"), std::string::npos)
+      << error_of(missing);
 
   Scene garbage = scene;
   garbage.init_file = (dir / "garbage.h5").string();
   std::ofstream(garbage.init_file) << "not hdf5 at all";
-  EXPECT_NE(error_of(garbage).find("not a readable HDF5 file"), std::string::npos);
+  EXPECT_NE(error_of(garbage).find("not an HDF5 file"), std::string::npos) << error_of(garbage);
 
   // NaN and a non-unit axis inside an otherwise valid file.
   Particles bad = last;

@@ -362,7 +362,8 @@ def mode_hostile(r: Runner):
     # Bad resume requests: the checkpoint is good, the request is not.
     expect_rejected("resume --set run.dt", good, ["cannot be changed on resume"],
                     ["resume", str(d), "--set", "run.dt=1e-3"])
-    expect_rejected("resume below the checkpoint", good, ["already"],
+    expect_rejected("resume below the checkpoint", good,
+                    ["at step 600 already (equilibration 0 + production 600 steps)"],
                     ["resume", str(d), "--set", "run.steps=100"])
     expect_rejected("resume --set run.steps=-5", good, ["run.steps"],
                     ["resume", str(d), "--set", "run.steps=-5"])
