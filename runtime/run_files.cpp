@@ -3,7 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <nlohmann/json.hpp>
 
 #include "runtime/run_state.hpp"
@@ -27,10 +29,15 @@ void prepare_output_dir(const fs::path &dir, bool force) {
 
 void write_atomically(const fs::path &path, const std::string &text) {
   const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    if (!out) throw SceneError({fmt::format("cannot write {}", tmp.string())});
+  std::ofstream out(tmp);
+  out << text;
+  out.close();  // a full disk shows only here: never rename a short file over a good one
+  if (!out) {
+    const int why = errno;
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw SceneError({fmt::format("cannot write {} ({})", tmp.string(),
+                                  why ? std::strerror(why) : "write failed")});
   }
   fs::rename(tmp, path);
 }

@@ -6,8 +6,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 
 #include "kernels/order_tensor.hpp"
@@ -100,7 +102,9 @@ nlohmann::json RunLoop::run() {
   } catch (const PhysicsError &e) {
     failure_ = e.what();
     if (!quiet_ && live_) fmt::print("\n");
-  } catch (const CheckpointError &e) {  // thrown on every rank alike
+  } catch (const std::exception &e) {  // output that failed: thrown on every rank alike
+    if (!dynamic_cast<const CheckpointError *>(&e) && !dynamic_cast<const RunOutputError *>(&e))
+      throw;
     failure_ = e.what();
     output_failed_ = true;
     if (!quiet_ && live_) fmt::print("\n");
@@ -213,7 +217,18 @@ void RunLoop::sample_fourier() {
 void RunLoop::write_frame() {
   ScopedRegion r(sim_->timers(), Region::kOutput);
   const Particles bodies = sim_->gather_bodies();
-  if (files_.trajectory) files_.trajectory->append(bodies, sim_->current_step(), sim_->time());
+  std::string problem;  // rank 0's (a full disk), agreed on so that every rank stops
+  errno = 0;
+  try {
+    if (files_.trajectory) files_.trajectory->append(bodies, sim_->current_step(), sim_->time());
+  } catch (const std::exception &e) {
+    const int why = errno;  // HDF5 says only that a write failed; the system says why
+    problem = why ? fmt::format("{} ({})", e.what(), std::strerror(why)) : e.what();
+  }
+  if (sim_->comm().sum("output", problem.empty() ? 0LL : 1LL) > 0)
+    throw RunOutputError(fmt::format("trajectory frame at step {} not written: {}",
+                                     sim_->current_step(),
+                                     problem.empty() ? "failed on rank 0" : problem));
   last_frame_step_ = sim_->current_step();
 }
 
@@ -279,8 +294,13 @@ nlohmann::json RunLoop::finish() {
   Simulation &sim = *sim_;
   // The final state, also after a physics failure (for a post-mortem); not after a failed
   // write (the disk is full).
-  if (last_frame_step_ != sim.current_step() && stopped_by_.empty() && !output_failed_)
-    write_frame();
+  try {
+    if (last_frame_step_ != sim.current_step() && stopped_by_.empty() && !output_failed_)
+      write_frame();
+  } catch (const RunOutputError &e) {
+    failure_ = e.what();
+    output_failed_ = true;
+  }
   RunOutcome outcome;
   outcome.failure = failure_;
   outcome.stopped_by = stopped_by_;

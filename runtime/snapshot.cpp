@@ -369,7 +369,8 @@ void TrajectoryWriter::append(const Particles &bodies, long long step, double ti
     append_row(file, base + "/time", H5T_NATIVE_DOUBLE, &time, frames_, path_);
   }
   ++frames_;
-  H5Fflush(file, H5F_SCOPE_GLOBAL);  // a killed run keeps every complete frame
+  // A killed run keeps every complete frame; a full disk shows here, where the frame is written.
+  check(H5Fflush(file, H5F_SCOPE_GLOBAL), "writing frame " + std::to_string(frames_ - 1), path_);
 }
 
 }  // namespace hardrod

@@ -485,14 +485,30 @@ def full_disk(r: Runner, d: pathlib.Path, target: str):
         (run / "checkpoint.h5").write_bytes((d / "checkpoint.prev.h5").read_bytes())  # step 600
         (run / "checkpoint.prev.h5").unlink()
         kept = (run / "checkpoint.h5").read_bytes()
-        free = shutil.disk_usage(mount).free
         filler = mount / "filler"
-        filler.write_bytes(b"\0" * max(0, free - 120 * 1024))  # room for the rows, not a checkpoint
+
+        def fill(leave):
+            filler.unlink(missing_ok=True)
+            filler.write_bytes(b"\0" * max(0, shutil.disk_usage(mount).free - leave))
+
+        # A disk with no room at all: nothing written is cut short (no file renamed over a
+        # good one from a short temporary), no temporary is left, the checkpoint is kept.
+        before = {f: (run / f).read_bytes()
+                  for f in ("scene.toml", "angular.json", "summary.json")}
+        fill(0)
+        p = r.run(["resume", str(run), "--set", "run.steps=1200"], expect=None)
+        assert p.returncode == 2 and "No space left on device" in p.stderr, (p.returncode, p.stderr)
+        assert not list(run.glob("*.tmp")), list(run.glob("*.tmp"))
+        assert all((run / f).read_bytes() == b for f, b in before.items())
+        assert (run / "checkpoint.h5").read_bytes() == kept
+        print(f"ok: no room at all: {p.stderr.strip().splitlines()[-1][:150]}")
+        # A checkpoint that does not fit (room for the rows, not the checkpoint).
+        fill(120 * 1024)
         p = r.run(["resume", str(run), "--set", "run.steps=1200"], expect=None)
         lines = p.stderr.strip().splitlines()
         assert p.returncode == 2 and len(lines) == 1 and "No space left on device" in lines[0], \
             (p.returncode, p.stderr)
-        assert not (run / "checkpoint.h5.tmp").exists()
+        assert not list(run.glob("*.tmp")), list(run.glob("*.tmp"))
         assert (run / "checkpoint.h5").read_bytes() == kept
         s = summary(run)
         assert s["status"] == "failed" and "No space left on device" in s["error"], s.get("error")
