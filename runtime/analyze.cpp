@@ -106,6 +106,36 @@ void print_frank(const nlohmann::json &out, const FrankFitOptions &o) {
       "    above 1, or the spread of the runs' own fits where larger (three runs or more)\n");
 }
 
+// A failed run, or one without production samples, has no results to merge.
+void check_has_results(const std::string &dir, const nlohmann::json &summary) {
+  const std::string status = summary.value("status", std::string("completed"));
+  if (status == "failed")
+    throw std::runtime_error(fmt::format(
+        "{}: the run failed ({}); it has no results to analyze", dir,
+        summary.contains("error") ? summary["error"].dump() : std::string("no reason recorded")));
+  const auto &s = summary.at("order_parameter");
+  if (!s.at("mean").is_number() || s.value("samples", 0LL) <= 0)
+    throw std::runtime_error(
+        fmt::format("{}: no production samples (status {}, steps_done {}); nothing to analyze", dir,
+                    status, summary.value("steps_done", 0LL)));
+}
+
+// Runs merge only when they simulate one system (seeds and lengths may differ).
+void check_same_system(const std::vector<std::string> &dirs,
+                       const std::vector<nlohmann::json> &summaries) {
+  const auto system = [](const nlohmann::json &s) {
+    return fmt::format("n = {}, L/D = {}, box {}", s.value("n", nlohmann::json()).dump(),
+                       s.value("aspect_ratio", nlohmann::json()).dump(),
+                       s.value("box", nlohmann::json()).dump());
+  };
+  for (std::size_t k = 1; k < summaries.size(); ++k)
+    if (system(summaries[k]) != system(summaries[0]))
+      throw std::runtime_error(fmt::format(
+          "analyze: {} ({}) and {} ({}) are runs of different systems; merge only runs of one "
+          "system",
+          dirs[0], system(summaries[0]), dirs[k], system(summaries[k])));
+}
+
 }  // namespace
 
 nlohmann::json analyze_runs(const AnalyzeOptions &options) {
@@ -122,6 +152,7 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   std::vector<FrankAccumulator> frank;
   for (const auto &dir : options.run_dirs) {
     summaries.push_back(read_json(fs::path(dir) / "summary.json"));
+    check_has_results(dir, summaries.back());
     const fs::path f = fs::path(dir) / "frank.json";
     if (fs::exists(f)) {
       try {
@@ -131,6 +162,7 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
       }
     }
   }
+  check_same_system(options.run_dirs, summaries);
   nlohmann::json out;
   out["runs"] = options.run_dirs.size();
   out["run_dirs"] = options.run_dirs;

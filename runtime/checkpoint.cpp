@@ -167,6 +167,7 @@ struct Writer {
 
 void write_hdf5(Communicator &comm, const fs::path &tmp, const Particles &owned, std::size_t count,
                 const Checkpoint &c, const std::array<hsize_t, 3> &text_sizes) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // one clear message, not HDF5's error stack
   Writer w;
   w.path = tmp.string();
   Id create(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
@@ -344,6 +345,29 @@ Particles rows_by_id_block(Communicator &comm, const Particles &owned, std::size
   return mine;
 }
 
+// The bytes a checkpoint takes, generously: its rows, its texts and HDF5's own structures.
+std::uintmax_t checkpoint_bytes(long long n, const std::array<hsize_t, 3> &text_sizes) {
+  constexpr std::uintmax_t kOverhead = 256 * 1024;
+  return kOverhead + static_cast<std::uintmax_t>(n) * (1 + 3 * kVectors.size()) * 8 +
+         text_sizes[0] + text_sizes[1] + text_sizes[2];
+}
+
+// "no space left on device: ..." when `dir` has less room than `needed`, else empty: HDF5
+// over MPI-IO reports a full disk only as a failed write.
+std::string space_problem(const fs::path &dir, std::uintmax_t needed) {
+  std::error_code ec;
+  const fs::space_info space = fs::space(dir, ec);
+  if (ec || space.available >= needed) return {};
+  return fmt::format("{}: {} bytes free in {}, a checkpoint needs about {}", std::strerror(ENOSPC),
+                     space.available, dir.string(), needed);
+}
+
+// Rank 0's problem, if any, thrown on every rank.
+void agree_on(Communicator &comm, const std::string &problem) {
+  if (comm.sum("checkpoint", problem.empty() ? 0LL : 1LL) > 0)
+    throw CheckpointError(problem.empty() ? "checkpoint failed on rank 0" : problem);
+}
+
 }  // namespace
 
 void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &owned,
@@ -358,11 +382,30 @@ void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &
   for (std::size_t k = 0; k < texts.size(); ++k)
     sizes[k] = static_cast<hsize_t>(
         comm.sum("checkpoint", comm.is_root() ? static_cast<long long>(texts[k]->size()) : 0LL));
-  if (comm.size() > 1) {
-    const Particles rows = rows_by_id_block(comm, owned, count, contents.n);
-    write_hdf5(comm, tmp, rows, rows.size(), contents, sizes);
+  // A full disk is found before anything is written, and named when a write fails; either
+  // way no partial checkpoint.h5.tmp stays and the previous checkpoints are untouched.
+  const std::uintmax_t needed = checkpoint_bytes(contents.n, sizes);
+  const std::string where = fmt::format("checkpoint at step {} not written", contents.step);
+  if (comm.is_root()) {
+    const std::string full = space_problem(dir, needed);
+    agree_on(comm, full.empty() ? "" : where + ": " + full);
   } else {
-    write_hdf5(comm, tmp, owned, count, contents, sizes);
+    agree_on(comm, "");
+  }
+  try {
+    if (comm.size() > 1) {
+      const Particles rows = rows_by_id_block(comm, owned, count, contents.n);
+      write_hdf5(comm, tmp, rows, rows.size(), contents, sizes);
+    } else {
+      write_hdf5(comm, tmp, owned, count, contents, sizes);
+    }
+  } catch (const CheckpointError &e) {
+    if (!comm.is_root()) throw;
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    const std::string full = space_problem(dir, needed);
+    throw CheckpointError(
+        fmt::format("{}: {}", where, full.empty() ? std::string(e.what()) : full));
   }
   std::string problem;
   if (comm.is_root()) {
@@ -391,10 +434,11 @@ void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &
       fsync_path(dir, true);
     } catch (const std::exception &e) {
       problem = e.what();
+      std::error_code ec;
+      fs::remove(tmp, ec);
     }
   }
-  if (comm.sum("checkpoint", problem.empty() ? 0LL : 1LL) > 0)
-    throw CheckpointError(problem.empty() ? "checkpoint failed on rank 0" : problem);
+  agree_on(comm, problem);
 }
 
 Checkpoint read_checkpoint(const fs::path &path) {

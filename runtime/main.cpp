@@ -237,6 +237,9 @@ int simulate_command(ExecutionArgs &e, const std::string &source,
   } catch (const hardrod::PhysicsError &err) {
     if (comm.is_root()) fmt::print(stderr, "hardrod: the run stopped: {}\n", err.what());
     return 3;
+  } catch (const hardrod::RunOutputError &err) {
+    if (comm.is_root()) fmt::print(stderr, "hardrod: the run stopped: {}\n", err.what());
+    return 2;
   } catch (const hardrod::RunInterrupted &err) {
     if (comm.is_root()) fmt::print(stderr, "hardrod: {}\n", err.what());
     return 4;

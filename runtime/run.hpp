@@ -38,6 +38,14 @@ class RunInterrupted : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A run stopped because its output could not be written (a checkpoint on a full disk): the
+// message says what and why; summary.json says "status": "failed" if it could still be
+// written, and the previous checkpoint is kept. Thrown on every rank.
+class RunOutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // Continues the run in `dir` from its newest complete checkpoint (or `checkpoint_path`) to
 // the step target of the stored scene with `overrides` (only run.steps and output
 // intervals may change), exactly: the result equals the uninterrupted run's, on any rank

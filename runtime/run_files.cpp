@@ -3,7 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <nlohmann/json.hpp>
 
 #include "runtime/run_state.hpp"
@@ -27,10 +29,15 @@ void prepare_output_dir(const fs::path &dir, bool force) {
 
 void write_atomically(const fs::path &path, const std::string &text) {
   const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    if (!out) throw SceneError({fmt::format("cannot write {}", tmp.string())});
+  std::ofstream out(tmp);
+  out << text;
+  out.close();  // a full disk shows only here: never rename a short file over a good one
+  if (!out) {
+    const int why = errno;
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw SceneError({fmt::format("cannot write {} ({})", tmp.string(),
+                                  why ? std::strerror(why) : "write failed")});
   }
   fs::rename(tmp, path);
 }
@@ -85,6 +92,7 @@ RunFiles open_run_files(Communicator &comm, const fs::path &dir, const Scene &sc
   if (comm.is_root()) {
     try {
       if (resumed) {
+        files.lock = std::make_unique<RunLock>(dir);
         write_atomically(dir / "scene.toml", scene_to_toml(scene));
         files.series =
             std::make_unique<TimeSeries>(dir / "timeseries.csv", resumed->timeseries_bytes);
@@ -92,6 +100,7 @@ RunFiles open_run_files(Communicator &comm, const fs::path &dir, const Scene &sc
             reopen_trajectory(dir / "trajectory.h5", scene, resumed->trajectory_frames, step);
       } else {
         prepare_output_dir(dir, force);
+        files.lock = std::make_unique<RunLock>(dir);
         write_atomically(dir / "scene.toml", scene_to_toml(scene));
         files.series = std::make_unique<TimeSeries>(dir / "timeseries.csv", -1);
         files.trajectory =

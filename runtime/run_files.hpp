@@ -13,6 +13,7 @@
 
 #include "kernels/order_tensor.hpp"
 #include "runtime/comm.hpp"
+#include "runtime/run_lock.hpp"
 #include "runtime/scene.hpp"
 #include "runtime/snapshot.hpp"
 
@@ -62,16 +63,18 @@ std::unique_ptr<TrajectoryWriter> reopen_trajectory(const std::filesystem::path 
                                                     const Scene &scene, long long frames,
                                                     long long step);
 
-// The open output of a run; both empty on ranks other than 0.
+// The open output of a run; all empty on ranks other than 0.
 struct RunFiles {
+  std::unique_ptr<RunLock> lock;  // the directory is this process's while the files are open
   std::unique_ptr<TimeSeries> series;
   std::unique_ptr<TrajectoryWriter> trajectory;
 };
 
-// Collective: rank 0 writes scene.toml and opens the time series and the trajectory in
-// `dir`, fresh (`resumed` null; refuses a directory holding a run unless `force`) or cut back
-// to what `resumed` recorded at checkpoint step `step`. Every rank learns whether it worked
-// and throws SceneError if not.
+// Collective: rank 0 takes the directory's lock, writes scene.toml and opens the time series
+// and the trajectory in `dir`, fresh (`resumed` null; refuses a directory holding a run
+// unless `force`) or cut back to what `resumed` recorded at checkpoint step `step`. Every
+// rank learns whether it worked and throws SceneError if not (a directory locked by another
+// process is left as it was).
 RunFiles open_run_files(Communicator &comm, const std::filesystem::path &dir, const Scene &scene,
                         bool force, const RunState *resumed, long long step);
 

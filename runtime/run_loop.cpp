@@ -6,8 +6,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 
 #include "kernels/order_tensor.hpp"
@@ -25,10 +27,12 @@ namespace {
 constexpr long long kBurst = 64;
 
 // Steps from `now` to the next step s with (s - origin) a multiple of `interval`, either side
-// of origin; at least one step (kBurst for no interval).
+// of origin; at least one step (kBurst for no interval). No intermediate exceeds `interval`
+// or |now - origin| (the scene bounds both), so no interval overflows it.
 long long steps_to(long long now, long long interval, long long origin) {
   if (interval <= 0) return kBurst;
-  const long long into = ((now - origin) % interval + interval) % interval;
+  long long into = (now - origin) % interval;
+  if (into < 0) into += interval;
   return interval - into;
 }
 
@@ -97,6 +101,12 @@ nlohmann::json RunLoop::run() {
     step_to_target();
   } catch (const PhysicsError &e) {
     failure_ = e.what();
+    if (!quiet_ && live_) fmt::print("\n");
+  } catch (const std::exception &e) {  // output that failed: thrown on every rank alike
+    if (!dynamic_cast<const CheckpointError *>(&e) && !dynamic_cast<const RunOutputError *>(&e))
+      throw;
+    failure_ = e.what();
+    output_failed_ = true;
     if (!quiet_ && live_) fmt::print("\n");
   }
   counters_.stop();
@@ -207,7 +217,18 @@ void RunLoop::sample_fourier() {
 void RunLoop::write_frame() {
   ScopedRegion r(sim_->timers(), Region::kOutput);
   const Particles bodies = sim_->gather_bodies();
-  if (files_.trajectory) files_.trajectory->append(bodies, sim_->current_step(), sim_->time());
+  std::string problem;  // rank 0's (a full disk), agreed on so that every rank stops
+  errno = 0;
+  try {
+    if (files_.trajectory) files_.trajectory->append(bodies, sim_->current_step(), sim_->time());
+  } catch (const std::exception &e) {
+    const int why = errno;  // HDF5 says only that a write failed; the system says why
+    problem = why ? fmt::format("{} ({})", e.what(), std::strerror(why)) : e.what();
+  }
+  if (sim_->comm().sum("output", problem.empty() ? 0LL : 1LL) > 0)
+    throw RunOutputError(fmt::format("trajectory frame at step {} not written: {}",
+                                     sim_->current_step(),
+                                     problem.empty() ? "failed on rank 0" : problem));
   last_frame_step_ = sim_->current_step();
 }
 
@@ -271,9 +292,15 @@ void RunLoop::print_progress(bool final_line) {
 // exception that says how the run ended, if it did not complete.
 nlohmann::json RunLoop::finish() {
   Simulation &sim = *sim_;
-  const bool root = sim.comm().is_root();
-  // The final state, also after a physics failure (for a post-mortem).
-  if (last_frame_step_ != sim.current_step() && stopped_by_.empty()) write_frame();
+  // The final state, also after a physics failure (for a post-mortem); not after a failed
+  // write (the disk is full).
+  try {
+    if (last_frame_step_ != sim.current_step() && stopped_by_.empty() && !output_failed_)
+      write_frame();
+  } catch (const RunOutputError &e) {
+    failure_ = e.what();
+    output_failed_ = true;
+  }
   RunOutcome outcome;
   outcome.failure = failure_;
   outcome.stopped_by = stopped_by_;
@@ -281,13 +308,19 @@ nlohmann::json RunLoop::finish() {
   outcome.wall_seconds = sim.comm().max("summary", {seconds_since_start()})[0];
   outcome.setup_seconds = setup_seconds_;
   nlohmann::json summary = run_summary(scene_, sim, st_, outcome, placement_, counters_);
-  if (frank_) {
-    save_frank_accumulator(*frank_, (dir_ / "frank.json").string());
-    summary["frank_samples"] = frank_->samples();
+  if (frank_) summary["frank_samples"] = frank_->samples();
+  try {
+    write_results(summary);
+  } catch (const std::exception &e) {
+    if (!output_failed_) throw;
+    failure_ += fmt::format("; the summary was not written either ({})", e.what());
   }
-  if (root) write_angular(dir_, st_.angular);
-  if (root) write_atomically(dir_ / "summary.json", summary.dump(2) + "\n");
   if (!quiet_) print_run_report(sim, st_, summary, counters_, dir_);
+  if (output_failed_)
+    throw RunOutputError(
+        fmt::format("{}; the previous checkpoint is kept: once there is room, "
+                    "continue with: hardrod resume {}",
+                    failure_, dir_.string()));
   if (!failure_.empty()) throw PhysicsError(failure_);
   if (!stopped_by_.empty())
     throw RunInterrupted(fmt::format(
@@ -295,6 +328,14 @@ nlohmann::json RunLoop::finish() {
         stopped_by_, sim.current_step(), total_steps_, (dir_ / kCheckpointFile).string(),
         dir_.string()));
   return summary;
+}
+
+// frank.json (rank 0 holds the accumulator), angular.json and summary.json.
+void RunLoop::write_results(const nlohmann::json &summary) {
+  if (frank_) save_frank_accumulator(*frank_, (dir_ / "frank.json").string());
+  if (!sim_->comm().is_root()) return;
+  write_angular(dir_, st_.angular);
+  write_atomically(dir_ / "summary.json", summary.dump(2) + "\n");
 }
 
 double RunLoop::seconds_since_start() const {

@@ -51,6 +51,7 @@ class RunLoop {
   void report_progress(long long step);
   void print_progress(bool final_line);
   nlohmann::json finish();
+  void write_results(const nlohmann::json &summary);
   double seconds_since_start() const;
 
   // Sampling intervals close every sample_interval steps counted from the start of
@@ -85,7 +86,8 @@ class RunLoop {
   double setup_seconds_ = 0.0;
   long long last_frame_step_ = -1;
   std::optional<Sample> last_sample_;  // for the progress line
-  std::string failure_;                // the PhysicsError that ended the run
+  std::string failure_;                // the PhysicsError (or failed output) that ended the run
+  bool output_failed_ = false;         // a checkpoint could not be written
   std::string stopped_by_;             // the signal that interrupted the run
 };
 

@@ -25,8 +25,9 @@ std::string duration_text(double seconds) {
   return fmt::format("{}s", s);
 }
 
+// No samples, no result: null, never a 0 that reads like a measurement.
 nlohmann::json estimate_json(const Estimate &e) {
-  return {{"mean", e.mean},
+  return {{"mean", e.samples > 0 ? nlohmann::json(e.mean) : nlohmann::json(nullptr)},
           {"error", std::isfinite(e.error) ? nlohmann::json(e.error) : nlohmann::json(nullptr)},
           {"samples", e.samples},
           {"converged", e.converged}};
@@ -265,6 +266,7 @@ void print_results(const RunState &st, const nlohmann::json &summary, const fs::
   if (summary["status"] == "failed")
     fmt::print("\nFAILED: {}\n", summary.value("error", std::string("(no message)")));
   auto pm = [](const Estimate &e) {
+    if (e.samples == 0) return std::string("none (no production samples)");
     return std::isfinite(e.error) ? fmt::format("{:.4f} +/- {:.4f}", e.mean, e.error)
                                   : fmt::format("{:.4f} (no error: too few samples)", e.mean);
   };

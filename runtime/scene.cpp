@@ -111,6 +111,24 @@ std::string needed_name(const Shape &shape, int axis, int k) {
   return (k == axis ? "L + D = " : "D = ") + format_short(needed_spacing(shape, axis, k));
 }
 
+// The neighbour search bins the box in cells as small as (L + D) / 2, counted in int: a box
+// with more cells than kMaxCells (a needle 1e9 D long, a gas at rho* = 1e-9) is refused
+// here rather than overflowing the count or the memory at the first list build.
+constexpr double kMaxCells = 1 << 30;
+
+bool check_cell_count(Reader &in, const Scene &scene, std::string_view key) {
+  const double cell = 0.5 * scene.shape.interaction_range();
+  double cells = 1.0;
+  for (int k = 0; k < 3; ++k) cells *= std::max(1.0, std::floor(side(scene.box, k) / cell));
+  if (cells <= kMaxCells) return true;
+  in.report("system", key,
+            "the box holds " + format_short(cells) +
+                " cells of (L + D) / 2 = " + format_short(cell) +
+                " D, more than the neighbour search's 2^30; give a smaller box or a higher "
+                "density");
+  return false;
+}
+
 bool check_box_sides(Reader &in, const Scene &scene, std::string_view key, bool cubic) {
   const double range = 2.0 * scene.shape.interaction_range();
   std::vector<std::string> small;
@@ -126,6 +144,8 @@ bool check_box_sides(Reader &in, const Scene &scene, std::string_view key, bool 
                   " (the minimum image must be unique)");
   else if (!std::isfinite(scene.box.volume()))
     in.report("system", key, "the box volume overflows");
+  else if (!check_cell_count(in, scene, key))
+    return false;
   return small.empty() && std::isfinite(scene.box.volume());
 }
 

@@ -13,6 +13,10 @@ namespace {
 
 // Far beyond any machine; keeps the trial-division factorisation behind "auto" instant.
 constexpr long long kMaxBodies = 1'000'000'000'000;
+// The most steps a run may hold (equilibration and production together), and so the largest
+// interval: decades at a microsecond per step, and far enough from 2^63 that the run loop's
+// step arithmetic (sums of a step and an interval) cannot overflow.
+constexpr long long kMaxSteps = 1'000'000'000'000'000;
 
 constexpr std::string_view kSections[] = {"system", "init", "run", "output", "observables"};
 constexpr std::string_view kShapes[] = {"spherocylinder", "sphere"};
@@ -44,6 +48,15 @@ constexpr Limit non_empty(std::string_view why) {
 }
 constexpr Limit one_of(std::span<const std::string_view> choices, std::string_view why) {
   return {.kind = Limit::Kind::kOneOf, .why = why, .choices = choices};
+}
+
+constexpr Limit steps_limit() { return integers(0, kMaxSteps); }
+
+// Production comes after equilibration: their sum is the last step, within kMaxSteps.
+std::string_view total_steps_fit(const Scene &s, const Value &v) {
+  return std::get<long long>(v) > kMaxSteps - s.equilibration_steps
+             ? "run.equilibration_steps + run.steps must be at most 1000000000000000"
+             : "";
 }
 
 bool lattice_start(const Scene &s) { return s.configuration == Configuration::kLattice; }
@@ -112,20 +125,22 @@ constexpr KeySpec kKeys[] = {
     {.section = "init", .name = "seed", .type = kInteger, .member = &Scene::seed,
      .limit = at_least(0), .help = "random seed of the velocities (and isotropic start)"},
     {.section = "init", .name = "temperature", .type = kReal, .member = &Scene::temperature,
-     .limit = positive(), .help = "kT"},
+     .limit = between(1e-6, 1e6),
+     .help = "kT (hard bodies: T only sets the time scale, so far from 1 it is a mistake)"},
     // [run]
     {.section = "run", .name = "dt", .type = kReal, .member = &Scene::dt, .limit = positive(),
      .required = true, .help = "time step in tau"},
     {.section = "run", .name = "equilibration_steps", .type = kInteger,
-     .member = &Scene::equilibration_steps, .limit = at_least(0),
+     .member = &Scene::equilibration_steps, .limit = steps_limit(),
      .help = "steps before production (not averaged)"},
     {.section = "run", .name = "steps", .type = kInteger, .member = &Scene::steps,
-     .limit = at_least(0), .required = true, .help = "production steps"},
+     .limit = steps_limit(), .required = true, .relation = total_steps_fit,
+     .help = "production steps"},
     {.section = "run", .name = "thermostat_interval", .type = kInteger,
-     .member = &Scene::thermostat_interval, .limit = at_least(0),
+     .member = &Scene::thermostat_interval, .limit = steps_limit(),
      .help = "steps between kinetic-energy rescalings; 0 = off"},
     {.section = "run", .name = "sample_interval", .type = kInteger,
-     .member = &Scene::sample_interval, .limit = at_least(1),
+     .member = &Scene::sample_interval, .limit = integers(1, kMaxSteps),
      .help = "steps per sample of S, P* and the kinetic energy"},
     {.section = "run", .name = "max_overlap", .type = kReal, .member = &Scene::max_overlap,
      .limit = between(0.0, 0.5), .help = "in D: a deeper overlap stops the run"},
@@ -142,12 +157,12 @@ constexpr KeySpec kKeys[] = {
     {.section = "output", .name = "dir", .type = kString, .member = &Scene::output_dir,
      .limit = non_empty("must not be empty"), .help = "the run directory"},
     {.section = "output", .name = "log_interval", .type = kInteger, .member = &Scene::log_interval,
-     .limit = at_least(0), .help = "steps between plain progress lines; 0 = 20 per run"},
+     .limit = steps_limit(), .help = "steps between plain progress lines; 0 = 20 per run"},
     {.section = "output", .name = "snapshot_interval", .type = kInteger,
-     .member = &Scene::snapshot_interval, .limit = at_least(0),
+     .member = &Scene::snapshot_interval, .limit = steps_limit(),
      .help = "steps between H5MD frames; 0 = the final state only"},
     {.section = "output", .name = "checkpoint_interval", .type = kInteger,
-     .member = &Scene::checkpoint_interval, .limit = at_least(0),
+     .member = &Scene::checkpoint_interval, .limit = steps_limit(),
      .help = "steps between checkpoints; 0 = at the end and on a signal"},
     // [observables]
     {.section = "observables", .name = "frank", .type = kBoolean, .member = &Scene::frank,
@@ -157,7 +172,7 @@ constexpr KeySpec kKeys[] = {
      .default_text = "1 + round(L / 2 pi), L the longest side",
      .help = "Fourier modes -kmax < k_a < kmax, k != 0"},
     {.section = "observables", .name = "fourier_interval", .type = kInteger,
-     .member = &Scene::fourier_interval, .limit = at_least(0),
+     .member = &Scene::fourier_interval, .limit = steps_limit(),
      .help = "steps between Fourier samples; 0 = sample_interval"},
 };
 // clang-format on

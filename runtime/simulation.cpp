@@ -13,13 +13,34 @@
 #include <stdexcept>
 
 #include "kernels/initial_state.hpp"
-#include "kernels/rotor_constraints.hpp"
 #include "kernels/isotropic_start.hpp"
+#include "kernels/rotor_constraints.hpp"
 #include "kernels/thermostat.hpp"
 #include "runtime/hoomd_gsd.hpp"
 #include "runtime/snapshot.hpp"
 
 namespace hardrod {
+
+// A frame from a file may hold overlapping bodies (a damaged or hand-made frame, another
+// shape): said here, naming the deepest pair, rather than at the first step as a dt problem.
+void check_start_overlaps(const Scene &scene, const Particles &all, const std::string &key,
+                          long long frame) {
+  Particles copy = all;  // the list build reorders the bodies
+  NeighborList list;
+  list.skin = 1e-6;
+  build_neighbor_list(list, copy, copy.size(), scene.box, scene.shape);
+  double deepest = 0.0;
+  const ListedPair *worst = nullptr;
+  for (const ListedPair &pair : list.pairs)
+    if (-pair.recheck_at > deepest) deepest = -pair.recheck_at, worst = &pair;
+  if (deepest <= scene.max_overlap) return;
+  throw SceneError({fmt::format(
+      "{}: frame {}: the start configuration overlaps: bodies {} and {} by {:.4g} D (more than "
+      "run.max_overlap = {:g} D); not a hard-body state for L/D = {:g} (another shape, or a "
+      "damaged file?)",
+      key, frame, copy.id[worst->first], copy.id[worst->second], deepest, scene.max_overlap,
+      scene.shape.length / scene.shape.diameter)});
+}
 
 // The scene's initial bodies, the same on every rank: on the lattice, compressed from a
 // random isotropic state (every rank computes the same, deterministic in the seed), or
@@ -27,8 +48,12 @@ namespace hardrod {
 // A GSD frame (runtime/hoomd_gsd.hpp) brings its velocities if it has any.
 Particles initial_bodies(const Scene &scene) {
   Particles all;
-  if (scene.configuration == Configuration::kFile && is_gsd_path(scene.init_file))
-    return start_from_gsd(scene);
+  if (scene.configuration == Configuration::kFile && is_gsd_path(scene.init_file)) {
+    all = start_from_gsd(scene);
+    check_start_overlaps(scene, all, fmt::format("init.file = \"{}\"", scene.init_file),
+                         scene.init_frame);
+    return all;
+  }
   if (scene.configuration == Configuration::kFile) {
     const std::string key = fmt::format("init.file = \"{}\"", scene.init_file);
     SnapshotFrame f;
@@ -47,6 +72,7 @@ Particles initial_bodies(const Scene &scene) {
             "{}: box {} x {} x {}, the scene's is {} x {} x {} (system.box or the density)", key,
             a.x, a.y, a.z, b.x, b.y, b.z)});
     all = std::move(f.bodies);
+    check_start_overlaps(scene, all, key, f.frame);
   } else if (scene.configuration == Configuration::kIsotropic) {
     try {
       all = make_isotropic(scene.n, scene.shape, scene.box, scene.seed);

@@ -2,9 +2,12 @@
 
 #include <fmt/format.h>
 #include <hdf5.h>
+#include <unistd.h>
 
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <vector>
 
@@ -306,8 +309,12 @@ void write_parameters(hid_t file, const Scene &scene, const Provenance &provenan
 
 SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  if (H5Fis_hdf5(path.c_str()) <= 0)
-    throw std::runtime_error(fmt::format("{}: not a readable HDF5 file", path));
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    const int missing = access(path.c_str(), R_OK) != 0 ? errno : 0;  // say why, if the OS can
+    throw std::runtime_error(fmt::format(
+        "{}: {}", path,
+        missing ? std::strerror(missing) : "not an HDF5 file (damaged or another format)"));
+  }
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (file < 0) throw std::runtime_error(fmt::format("{}: cannot open", path));
   struct Closer {
@@ -512,7 +519,8 @@ void TrajectoryWriter::append(const Particles &bodies, long long step, double ti
     append_row(file, kNewerSeries[2], H5T_NATIVE_INT, image.data(), frames_, path_);
   }
   ++frames_;
-  H5Fflush(file, H5F_SCOPE_GLOBAL);  // a killed run keeps every complete frame
+  // A killed run keeps every complete frame; a full disk shows here, where the frame is written.
+  check(H5Fflush(file, H5F_SCOPE_GLOBAL), "writing frame " + std::to_string(frames_ - 1), path_);
 }
 
 }  // namespace hardrod

@@ -71,5 +71,54 @@ TEST(Analyze, RefusesMixedRunsAndMissingFiles) {
   }
 }
 
+// A run directory holding only summary.json with these fields changed from a good run's.
+std::string fake_run(const std::string &name, const nlohmann::json &changes) {
+  nlohmann::json summary = {{"status", "completed"},
+                            {"n", 768},
+                            {"aspect_ratio", 5.0},
+                            {"box", {20.0, 20.0, 20.0}},
+                            {"steps_done", 3000},
+                            {"order_parameter", {{"mean", 0.8}, {"error", 0.01}, {"samples", 20}}},
+                            {"pressure_star", {{"mean", 6.0}, {"error", 0.05}, {"samples", 20}}}};
+  if (changes.is_object()) summary.update(changes);
+  const fs::path dir = fs::temp_directory_path() / ("hardrod-analyze-fake-" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "summary.json") << summary.dump(2);
+  return dir.string();
+}
+
+std::string refusal(const std::vector<std::string> &dirs) {
+  AnalyzeOptions options;
+  options.plots = false;
+  options.run_dirs = dirs;
+  options.output_dir = (fs::temp_directory_path() / "hardrod-analyze-fake-out").string();
+  try {
+    analyze_runs(options);
+  } catch (const std::runtime_error &e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A failed run, a run without production samples and runs of different systems have nothing
+// to merge: each is refused with a message that names the run and why.
+TEST(Analyze, RefusesRunsWithoutResultsAndOfDifferentSystems) {
+  const std::string good = fake_run("good", {});
+  EXPECT_EQ(refusal({good}), "");
+  const std::string failed =
+      fake_run("failed", {{"status", "failed"}, {"error", "step 1: overlap 0.3 D"}});
+  EXPECT_NE(refusal({failed}).find("the run failed (\"step 1: overlap 0.3 D\")"), std::string::npos)
+      << refusal({failed});
+  const std::string empty = fake_run(
+      "empty", {{"order_parameter", {{"mean", nullptr}, {"error", nullptr}, {"samples", 0}}}});
+  EXPECT_NE(refusal({empty}).find("no production samples"), std::string::npos);
+  const std::string other = fake_run("other", {{"n", 2304}});
+  const std::string mixed = refusal({good, other});
+  EXPECT_NE(mixed.find("n = 768"), std::string::npos) << mixed;
+  EXPECT_NE(mixed.find("n = 2304"), std::string::npos) << mixed;
+  EXPECT_NE(mixed.find("different systems"), std::string::npos) << mixed;
+}
+
 }  // namespace
 }  // namespace hardrod

@@ -1,6 +1,6 @@
 // The checks a resume makes before it touches the run directory: only the step target and
 // output intervals may change, the directory must exist, and a missing checkpoint with a
-// complete previous one names the command that uses it. (Resuming itself, exactly, is
+// previous one falls back to that one. (Resuming itself, exactly, is
 // tests/scripts/check_checkpoint.py.)
 #include <gtest/gtest.h>
 
@@ -31,7 +31,9 @@ TEST(Resume, MissingRunDirectory) {
                CheckpointError);
 }
 
-TEST(Resume, MissingCheckpointPointsAtThePreviousOne) {
+// A job killed between the checkpoint's two renames leaves only checkpoint.prev.h5: resume
+// reads that one by itself (here it is junk, so the refusal names it).
+TEST(Resume, MissingCheckpointFallsBackToThePreviousOne) {
   const fs::path dir = fs::temp_directory_path() / "hardrod-test-resume-previous";
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -40,7 +42,9 @@ TEST(Resume, MissingCheckpointPointsAtThePreviousOne) {
     find_resume_point(dir.string(), {}, "");
     FAIL() << "expected CheckpointError";
   } catch (const CheckpointError &e) {
-    EXPECT_NE(std::string(e.what()).find("--checkpoint"), std::string::npos) << e.what();
+    const std::string message = e.what();
+    EXPECT_NE(message.find(kPreviousCheckpointFile), std::string::npos) << message;
+    EXPECT_EQ(message.find("--checkpoint"), std::string::npos) << message;  // read, not named
   }
   fs::remove_all(dir);
 }

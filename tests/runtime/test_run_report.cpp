@@ -18,6 +18,14 @@ TEST(RunReport, DurationText) {
   EXPECT_EQ(duration_text(std::nan("")), "?");
 }
 
+// A run without production samples has no S or P*: null, not a 0 that reads like a result.
+TEST(RunReport, EstimateWithoutSamplesIsNull) {
+  const auto j = estimate_json(block_average({}));
+  EXPECT_TRUE(j["mean"].is_null()) << j.dump();
+  EXPECT_TRUE(j["error"].is_null()) << j.dump();
+  EXPECT_EQ(j["samples"].get<long long>(), 0);
+}
+
 TEST(RunReport, EstimateWithoutErrorIsNull) {
   Estimate e;
   e.mean = 1.5;

@@ -396,6 +396,21 @@ TEST(Scene, BoxTooSmallForInteractionRange) {
             "(the minimum image must be unique)");
 }
 
+// A box the neighbour search cannot bin (issue 18: [1e9, 20, 20] ended in an unhandled
+// exception) is a scene error naming the key, its value and the limit; so is the cube of a
+// vanishing density. The paper's largest box passes.
+TEST(Scene, BoxWithTooManyCells) {
+  auto problems = problems_of(rods(768, "box = [1e9, 20, 20]", "lattice = \"auto\""));
+  ASSERT_EQ(problems.size(), 1u) << lines(problems);
+  EXPECT_TRUE(contains(problems, "system.box = [1e+09, 20, 20]: the box holds 1.2e+10 cells"))
+      << lines(problems);
+  EXPECT_TRUE(contains(problems, "more than the neighbour search's 2^30")) << lines(problems);
+  problems = problems_of(rods(768, "reduced_density = 1e-9", "lattice = \"auto\""));
+  EXPECT_TRUE(contains(problems, "system.reduced_density = 1e-09: the box holds"))
+      << lines(problems);
+  EXPECT_NO_THROW(parse_scene(rods(147456, "reduced_density = 0.5", "lattice = [16, 96, 96]")));
+}
+
 TEST(Scene, SyntaxErrorNamesSourceLineColumn) {
   try {
     parse_scene("[system]\nn = = 3\n", {}, "bad.toml");

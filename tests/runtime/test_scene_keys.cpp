@@ -167,5 +167,36 @@ TEST(SceneKeys, EveryKeyRejectsAWrongValueByName) {
   }
 }
 
+// Step counts and intervals are bounded so that no step arithmetic can overflow: 2^63 - 1 is
+// refused by name with the largest accepted value, and so is a sum past it.
+TEST(SceneKeys, StepCountsAndIntervalsHaveALargestValue) {
+  const std::string huge = "9223372036854775807";
+  for (const char *key : {"run.steps", "run.equilibration_steps", "run.thermostat_interval",
+                          "run.sample_interval", "output.log_interval", "output.snapshot_interval",
+                          "output.checkpoint_interval", "observables.fourier_interval"}) {
+    const auto problems = problems_of(kScene, {std::string(key) + "=" + huge});
+    EXPECT_TRUE(
+        contains(problems, std::string(key) + " = " + huge + ": must be at most 1000000000000000"))
+        << key << "\n"
+        << lines(problems);
+  }
+  const auto sum = problems_of(kScene, {"run.equilibration_steps=1000000000000000", "run.steps=1"});
+  EXPECT_TRUE(contains(sum, "run.steps = 1: run.equilibration_steps + run.steps must be at most"))
+      << lines(sum);
+  EXPECT_EQ(parse_scene(kScene, {"run.equilibration_steps=999999999999999", "run.steps=1"}).steps,
+            1);
+}
+
+// Hard bodies: the temperature only sets the time scale, so an absurd one is a mistake in the
+// scene, said so by name, not a physics break later blamed on dt.
+TEST(SceneKeys, TemperatureHasLimits) {
+  for (const char *value : {"1e-30", "1e300", "0", "-1"}) {
+    const auto problems = problems_of(kScene, {std::string("init.temperature=") + value});
+    ASSERT_EQ(problems.size(), 1u) << lines(problems);
+    EXPECT_EQ(problems[0].rfind("init.temperature = ", 0), 0u) << lines(problems);
+    EXPECT_TRUE(contains(problems, ": must be in (1e-06, 1e+06)")) << lines(problems);
+  }
+}
+
 }  // namespace
 }  // namespace hardrod

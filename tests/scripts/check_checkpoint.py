@@ -8,8 +8,10 @@
             the final state equals the uninterrupted run's; after every kill (also SIGKILL)
             every checkpoint on disk is complete (sealed size and hash, readable by h5py).
   hostile   truncated, bit-flipped, wrong-version, NaN, wrong-N and wrong-shape checkpoints,
-            bad resume overrides and malformed scene files: each exits 2 with a clear
-            message, and no file of the run directory changes.
+            checkpoints of another run, bad resume overrides, malformed scene files and
+            values past the step limits: each exits 2 with a clear message, and no file of
+            the run directory changes. A second process in a run directory, a missing newest
+            checkpoint, a run without production samples (issue 18).
 
 Usage: check_checkpoint.py MODE HARDROD SOURCE_DIR [--mpirun MPIRUN]
 Needs h5py (Debian python3-h5py), hence run by /usr/bin/python3.
@@ -348,10 +350,23 @@ def mode_hostile(r: Runner):
     edited("bodies edited", moved, ["hash to"])
     edited("scene with another n", scene_n, ["n = 2000", "lattice"])
 
+    def other_seed(f):  # a checkpoint of another run of the same system: only the seed differs
+        text = bytes(f["scene"][()]).decode().replace("seed = 11", "seed = 12")
+        del f["scene"]
+        f["scene"] = np.frombuffer(text.encode(), dtype=np.int8)
+
+    edited("checkpoint of another run (other seed)", other_seed,
+           ["belongs to another run (init.seed = 12 in the checkpoint, 11 in"])
+    foreign = r.work / "foreign.h5"
+    foreign.write_bytes((r.work / "edit.h5").read_bytes())
+    expect_rejected("resume --checkpoint of another run", good, ["belongs to another run"],
+                    ["resume", str(d), "--checkpoint", str(foreign), "--set", "run.steps=1200"])
+
     # Bad resume requests: the checkpoint is good, the request is not.
     expect_rejected("resume --set run.dt", good, ["cannot be changed on resume"],
                     ["resume", str(d), "--set", "run.dt=1e-3"])
-    expect_rejected("resume below the checkpoint", good, ["already"],
+    expect_rejected("resume below the checkpoint", good,
+                    ["at step 600 already (equilibration 0 + production 600 steps)"],
                     ["resume", str(d), "--set", "run.steps=100"])
     expect_rejected("resume --set run.steps=-5", good, ["run.steps"],
                     ["resume", str(d), "--set", "run.steps=-5"])
@@ -372,6 +387,27 @@ def mode_hostile(r: Runner):
         path.write_text(text)
         expect_rejected(f"scene: {label}", good, words,
                         ["run", str(path), "--out", str(d), "--force"])
+    # Values that once hung the run (an interval of 2^63 - 1 overflowed the next-event step),
+    # ended it at once as "completed" (steps + equilibration overflowed) or crashed it: refused
+    # in seconds by name, with nothing created (a rerun needs no --force).
+    huge = str(2**63 - 1)
+    overrides = {
+        "output.snapshot_interval": (huge, ["must be at most 1000000000000000"]),
+        "output.checkpoint_interval": (huge, ["must be at most 1000000000000000"]),
+        "run.steps": (huge, ["must be at most 1000000000000000"]),
+        "init.temperature": ("1e-30", ["init.temperature = 1e-30: must be in"]),
+        "system.box": ("[1e9,20,20]", ["system.box = [1e+09, 20, 20]: the box holds"]),
+    }
+    for key, (value, words) in overrides.items():
+        fresh = r.work / "never-made"
+        start = time.monotonic()
+        p = r.run(["run", str(r.scene), "--out", str(fresh), "--set", f"{key}={value}"],
+                  expect=None)
+        if p.returncode != 2 or not any(w in p.stderr for w in words) or fresh.exists():
+            sys.exit(f"FAIL --set {key}={value}: exit {p.returncode}, directory made: "
+                     f"{fresh.exists()}\n{p.stderr}")
+        print(f"ok: --set {key}={value} refused in {time.monotonic() - start:.1f} s: "
+              f"{p.stderr.strip().splitlines()[-1][:150]}")
     # And the untouched checkpoint still resumes.
     (d / "checkpoint.h5").write_bytes(good)
     r.run(["resume", str(d), "--set", "run.steps=1200"])
@@ -387,6 +423,105 @@ def mode_hostile(r: Runner):
     r.run(["resume", str(older), "--set", "run.steps=1200"])
     assert summary(older)["state_checksum"] == summary(d)["state_checksum"]
     print("ok: a checkpoint without setup_seconds (earlier build) resumes to the same state")
+    hostile_directories(r, d)
+
+
+def hostile_directories(r: Runner, d: pathlib.Path):
+    """One process per run directory; a missing newest checkpoint; a run without results."""
+    target = summary(d)["state_checksum"]  # d: 0 -> 600 -> 1200
+    # A second resume while one runs is refused with the holder's pid; once the holder is
+    # killed (kill -9: the lock file stays), the directory resumes to the same state.
+    locked = r.work / "locked"
+    shutil.copytree(d, locked)
+    (locked / "checkpoint.h5").write_bytes((locked / "checkpoint.prev.h5").read_bytes())
+    holder = subprocess.Popen(r.command(["resume", str(locked), "--set", "run.steps=100000000"]),
+                              env=r.env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    lock = locked / "hardrod.lock"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (
+            lock.exists() and lock.read_text().strip() == str(holder.pid)):
+        time.sleep(0.1)
+    p = r.run(["resume", str(locked), "--set", "run.steps=1200"], expect=None)
+    holder.kill()
+    holder.wait()
+    if p.returncode != 2 or f"in use by another hardrod process (pid {holder.pid}" not in p.stderr:
+        sys.exit(f"FAIL second resume: exit {p.returncode}\n{p.stderr}")
+    print(f"ok: a second resume is refused: {p.stderr.strip().splitlines()[-1][:150]}")
+    r.run(["resume", str(locked), "--set", "run.steps=1200"])
+    assert summary(locked)["state_checksum"] == target
+    print("ok: after kill -9 of the holder the directory resumes to the same state")
+    # Killed between the checkpoint's two renames: only checkpoint.prev.h5 (step 600) is left;
+    # resume takes it by itself, says so, and reaches the same state.
+    renamed = r.work / "renamed"
+    shutil.copytree(d, renamed)
+    (renamed / "checkpoint.h5").unlink()
+    p = r.run(["resume", str(renamed), "--set", "run.steps=1200"])
+    assert "resuming from the previous one" in p.stderr, p.stderr
+    assert summary(renamed)["state_checksum"] == target
+    print("ok: a missing checkpoint.h5 falls back to checkpoint.prev.h5 with a note")
+    # No production samples: no S or P* written as results, and analyze refuses the run.
+    empty = r.work / "no-production"
+    r.run(["run", str(r.scene), "--out", str(empty), "--set", "run.steps=0",
+           "--set", "run.equilibration_steps=100"])
+    s = summary(empty)
+    assert s["order_parameter"]["mean"] is None and s["pressure_star"]["mean"] is None, s
+    p = subprocess.run([r.hardrod, "analyze", str(empty), "--no-plots"], capture_output=True,
+                       text=True, timeout=60)
+    assert p.returncode != 0 and "no production samples" in p.stderr, (p.returncode, p.stderr)
+    print(f"ok: no production samples: null results; analyze: {p.stderr.strip()[:150]}")
+    full_disk(r, d, target)
+
+
+def full_disk(r: Runner, d: pathlib.Path, target: str):
+    """A disk that fills up before a checkpoint: one line naming "No space left on device",
+    summary.json with status failed, no checkpoint.h5.tmp, the previous checkpoint intact;
+    with room again the run resumes to the uninterrupted state. Needs a small tmpfs (root)."""
+    mount = r.work / "small-disk"
+    mount.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4M", "tmpfs", str(mount)],
+                      capture_output=True).returncode != 0:
+        print("skip: full disk: cannot mount a tmpfs here (needs root)")
+        return
+    try:
+        run = mount / "run"
+        shutil.copytree(d, run, ignore=shutil.ignore_patterns("checkpoint.h5"))
+        (run / "checkpoint.h5").write_bytes((d / "checkpoint.prev.h5").read_bytes())  # step 600
+        (run / "checkpoint.prev.h5").unlink()
+        kept = (run / "checkpoint.h5").read_bytes()
+        filler = mount / "filler"
+
+        def fill(leave):
+            filler.unlink(missing_ok=True)
+            filler.write_bytes(b"\0" * max(0, shutil.disk_usage(mount).free - leave))
+
+        # A disk with no room at all: nothing written is cut short (no file renamed over a
+        # good one from a short temporary), no temporary is left, the checkpoint is kept.
+        before = {f: (run / f).read_bytes()
+                  for f in ("scene.toml", "angular.json", "summary.json")}
+        fill(0)
+        p = r.run(["resume", str(run), "--set", "run.steps=1200"], expect=None)
+        assert p.returncode == 2 and "No space left on device" in p.stderr, (p.returncode, p.stderr)
+        assert not list(run.glob("*.tmp")), list(run.glob("*.tmp"))
+        assert all((run / f).read_bytes() == b for f, b in before.items())
+        assert (run / "checkpoint.h5").read_bytes() == kept
+        print(f"ok: no room at all: {p.stderr.strip().splitlines()[-1][:150]}")
+        # A checkpoint that does not fit (room for the rows, not the checkpoint).
+        fill(120 * 1024)
+        p = r.run(["resume", str(run), "--set", "run.steps=1200"], expect=None)
+        lines = p.stderr.strip().splitlines()
+        assert p.returncode == 2 and len(lines) == 1 and "No space left on device" in lines[0], \
+            (p.returncode, p.stderr)
+        assert not list(run.glob("*.tmp")), list(run.glob("*.tmp"))
+        assert (run / "checkpoint.h5").read_bytes() == kept
+        s = summary(run)
+        assert s["status"] == "failed" and "No space left on device" in s["error"], s.get("error")
+        print(f"ok: full disk: {lines[0][:150]}")
+        filler.unlink()
+        r.run(["resume", str(run), "--set", "run.steps=1200"])
+        assert summary(run)["state_checksum"] == target
+        print("ok: with room again the run resumes to the uninterrupted state")
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
 
 
 def main():
