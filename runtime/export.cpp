@@ -10,9 +10,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
+#include "runtime/checkpoint.hpp"
 #include "runtime/hoomd_gsd.hpp"
 
 namespace hardrod {
@@ -127,6 +129,20 @@ SnapshotFrame read_h5md_frame_with_velocities(const std::string &path, long long
   return f;
 }
 
+// Frame k with its velocities, checked against the state checksum it was written with (files
+// that carry one): a damaged file is refused rather than exported.
+SnapshotFrame read_checked_frame(const std::string &path, long long k) {
+  SnapshotFrame f = read_h5md_frame_with_velocities(path, k);
+  const std::optional<std::uint64_t> stored = read_frame_checksum(path, f.frame);
+  const std::uint64_t now = body_hash(f.bodies);
+  if (stored && now != *stored)
+    throw std::runtime_error(
+        fmt::format("{}: frame {} is damaged: its data hash to {:016x}, it was written as {:016x} "
+                    "(/observables/state_checksum)",
+                    path, f.frame, now, *stored));
+  return f;
+}
+
 std::string extended_xyz(const SnapshotFrame &f, const Shape &shape) {
   const Vec3 &l = f.box.length;
   std::string out = fmt::format(
@@ -156,14 +172,14 @@ void export_trajectory(const std::string &h5md, std::optional<long long> frame,
     write_then_rename(out, [&](const std::string &tmp) {
       gsd::Writer writer(tmp, "hardrod", "hoomd", gsd::make_version(1, 4));
       for (long long k = first; k < last; ++k)
-        append_hoomd_frame(writer, read_h5md_frame_with_velocities(h5md, k), shape, k == first);
+        append_hoomd_frame(writer, read_checked_frame(h5md, k), shape, k == first);
       writer.finish();
     });
     return;
   }
   const auto write = [&](std::ostream &stream) {
     for (long long k = first; k < last; ++k)
-      stream << extended_xyz(read_h5md_frame(h5md, k), shape);
+      stream << extended_xyz(read_checked_frame(h5md, k), shape);
   };
   if (out.empty()) {
     write(std::cout);

@@ -8,9 +8,11 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
+#include "runtime/checkpoint.hpp"
 #include "runtime/provenance.hpp"
 
 namespace hardrod {
@@ -155,6 +157,11 @@ const std::array<const char *, 3> kNewerSeries = {"/particles/all/box/edges/valu
                                                   "/particles/wrapped/position/value",
                                                   "/particles/wrapped/image/value"};
 
+// Each frame's state checksum (body_hash: FNV-1a of ids, positions, axes, velocities and
+// angular velocities, in id order; the last frame's is summary.json's state_checksum), so
+// that a reader can tell a damaged frame from a good one. Files from before it lack it.
+constexpr const char *kChecksumSeries = "/observables/state_checksum/value";
+
 // The unit in hardrod's reduced units, as `reduced_unit`: H5MD's `unit` attribute is for SI
 // symbols, and MDAnalysis 2.4 refuses to open a file whose `unit` it does not know, even
 // with convert_units=False. The unit system itself is named in /h5md/modules/units.
@@ -292,6 +299,20 @@ void make_wrapped(hid_t file, hid_t particles, long long n) {
   link_step_and_time(file, "/particles/all/position", "/particles/wrapped/image");
 }
 
+// /observables/state_checksum: one unsigned 64-bit checksum per frame (kChecksumSeries);
+// step and time are position's.
+void make_checksums(hid_t file) {
+  const hid_t observables = make_group(file, "observables");
+  const hid_t checksum = make_group(observables, "state_checksum");
+  make_series(checksum, "value", H5T_NATIVE_UINT64, {});
+  write_string_attribute(checksum, "description",
+                         "FNV-1a 64 of each frame's ids, positions, axes, velocities and angular "
+                         "velocities in id order (hardrod's state_checksum)");
+  H5Gclose(checksum);
+  H5Gclose(observables);
+  link_step_and_time(file, "/particles/all/position", "/observables/state_checksum");
+}
+
 // The scene's shape and the provenance (the same keys as summary.json).
 void write_parameters(hid_t file, const Scene &scene, const Provenance &provenance) {
   const hid_t parameters = make_group(file, "parameters");
@@ -381,11 +402,34 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
   return out;
 }
 
+std::optional<std::uint64_t> read_frame_checksum(const std::string &path, long long frame) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file < 0) throw std::runtime_error(fmt::format("{}: cannot open", path));
+  std::optional<std::uint64_t> out;
+  try {
+    if (series_exists(file, kChecksumSeries)) {
+      const std::vector<hsize_t> dims = dataset_shape(file, kChecksumSeries, path);
+      if (dims.size() != 1 || frame < 0 || static_cast<hsize_t>(frame) >= dims[0])
+        throw std::runtime_error(
+            fmt::format("{}: {} has no frame {}", path, kChecksumSeries, frame));
+      out = read_rows<std::uint64_t>(file, kChecksumSeries, H5T_NATIVE_UINT64, dims,
+                                     static_cast<hsize_t>(frame), path)[0];
+    }
+  } catch (...) {
+    H5Fclose(file);
+    throw;
+  }
+  H5Fclose(file);
+  return out;
+}
+
 TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
     : n_(scene.n),
       edges_{scene.box.length.x, scene.box.length.y, scene.box.length.z},
       box_series_(true),
       wrapped_(true),
+      checksums_(true),
       path_(path) {
   const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (file < 0) throw std::runtime_error(fmt::format("{}: cannot create the H5MD file", path));
@@ -409,6 +453,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
   H5Gclose(all);
   make_wrapped(file, particles, scene.n);
   H5Gclose(particles);
+  make_checksums(file);
   write_parameters(file, scene, provenance);
   H5Fflush(file, H5F_SCOPE_GLOBAL);
 }
@@ -475,6 +520,8 @@ void TrajectoryWriter::cut_back(long long n, long long keep_frames) {
   if (wrapped_)
     for (const char *name : {kNewerSeries[1], kNewerSeries[2]})
       cut_series(file, name, n, keep_frames, path_);
+  checksums_ = series_exists(file, kChecksumSeries);
+  if (checksums_) cut_series(file, kChecksumSeries, n, keep_frames, path_, false);
   H5Fflush(file, H5F_SCOPE_GLOBAL);
 }
 
@@ -517,6 +564,10 @@ void TrajectoryWriter::append(const Particles &bodies, long long step, double ti
     }
     append_row(file, kNewerSeries[1], H5T_NATIVE_DOUBLE, buffer.data(), frames_, path_);
     append_row(file, kNewerSeries[2], H5T_NATIVE_INT, image.data(), frames_, path_);
+  }
+  if (checksums_) {
+    const std::uint64_t hash = body_hash(bodies);
+    append_row(file, kChecksumSeries, H5T_NATIVE_UINT64, &hash, frames_, path_);
   }
   ++frames_;
   // A killed run keeps every complete frame; a full disk shows here, where the frame is written.

@@ -5,6 +5,7 @@
 //   /particles/all/box (dimension 3, boundary periodic) with edges/{step, time, value[T][3][3]}
 //     (a diagonal matrix per frame: the form MDAnalysis reads; step and time are position's)
 //   /particles/all/id/value[N]
+//   /observables/state_checksum/{step, time, value[T]}: each frame's state checksum
 //   /particles/wrapped/{position, image}: positions folded into [0, l) and the integer image
 //     counts, position + image * edges = /particles/all/position to round-off
 //   /parameters (attributes: aspect_ratio, diameter, n, shape, and the provenance: version,
@@ -18,6 +19,8 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
+#include <optional>
 #include <string>
 
 #include "kernels/box.hpp"
@@ -42,6 +45,10 @@ struct SnapshotFrame {
 // problem.
 SnapshotFrame read_h5md_frame(const std::string &path, long long frame);
 
+// Frame `frame`'s state checksum (/observables/state_checksum: body_hash of the frame as
+// written), or nothing for a file written before frames carried one.
+std::optional<std::uint64_t> read_frame_checksum(const std::string &path, long long frame);
+
 class TrajectoryWriter {
  public:
   // Creates (truncates) the file. Throws std::runtime_error naming the path on failure.
@@ -65,6 +72,7 @@ class TrajectoryWriter {
   std::array<double, 3> edges_{};  // the box, for the time-dependent box/edges
   bool box_series_ = false;        // box/edges is time-dependent (false: an older file)
   bool wrapped_ = false;           // /particles/wrapped is present (false: an older file)
+  bool checksums_ = false;         // /observables/state_checksum is present (idem)
   std::string path_;
 };
 

@@ -226,6 +226,30 @@ def expect_failure(cmd, code, words):
     assert r.returncode == code and all(w in r.stderr for w in words), (cmd, r.returncode, r.stderr)
 
 
+def check_damaged_frame(hardrod, h5path, out):
+    """Every frame carries its state checksum (the last is summary.json's); one flipped bit in
+    a position that stays finite is refused by export, and the other frames still export."""
+    summary = json.loads((h5path.parent / "summary.json").read_text())
+    with h5py.File(h5path, "r") as h5:
+        sums = h5["observables/state_checksum/value"][:]
+        assert len(sums) == h5["particles/all/position/value"].shape[0]
+        assert f"{int(sums[-1]):016x}" == summary["state_checksum"], (sums[-1], summary)
+    damaged = out / "damaged.h5"
+    shutil.copy(h5path, damaged)
+    with h5py.File(damaged, "r+") as h5:
+        v = h5["particles/all/position/value"]
+        x = np.array(v[0, 7, 2])
+        x.view(np.uint64)[...] ^= np.uint64(1 << 30)  # a finite, plausible, wrong coordinate
+        v[0, 7, 2] = x
+    for fmt in ("gsd", "xyz"):
+        target = out / f"damaged.{fmt}"
+        expect_failure([hardrod, "export", str(damaged), "--out", str(target)], 2,
+                       ["frame 0 is damaged", "state_checksum"])
+        assert not target.exists() and not pathlib.Path(str(target) + ".tmp").exists()
+    subprocess.run([hardrod, "export", str(damaged), "--frame", "-1", "--out",
+                    str(out / "last.xyz")], check=True)
+
+
 def main():
     hardrod, source = sys.argv[1], pathlib.Path(sys.argv[2])
     out = pathlib.Path(tempfile.mkdtemp(prefix="hardrod-gsd-"))
@@ -258,6 +282,7 @@ def main():
         expect_failure(run + ["--out", str(out / "bad"), "--set", "system.n=2000", "--set",
                               "init.configuration=\"file\"", "--set", f"init.file=\"{out / 't.gsd'}\""],
                        2, ["init.file", "t.gsd", "2304", "2000"])
+        check_damaged_frame(hardrod, h5path, out)
         print("check_gsd_export: ok")
     finally:
         shutil.rmtree(out, ignore_errors=True)
