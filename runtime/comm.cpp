@@ -2,6 +2,7 @@
 
 #include <mpi.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -28,6 +29,13 @@ void ensure_mpi() {
 constexpr int kExchangeTag = 7001;
 
 }  // namespace
+
+void Communicator::abort(int code) const {
+  std::fflush(stdout);
+  std::fflush(stderr);
+  MPI_Abort(MPI_COMM_WORLD, code);
+  std::_Exit(code);  // not reached: MPI_Abort does not return
+}
 
 Communicator::Communicator() {
   ensure_mpi();

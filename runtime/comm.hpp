@@ -33,6 +33,9 @@ class Communicator {
   int rank() const { return rank_; }
   int size() const { return size_; }
   bool is_root() const { return rank_ == 0; }
+  // Ends every rank of the job at once (MPI_Abort) with `code`: for an error that only some
+  // ranks may have met, where waiting for the others would hang.
+  [[noreturn]] void abort(int code) const;
 
   // Process grid: explicit dims (product must equal size) or 0s for MPI_Dims_create.
   std::array<int, 3> make_grid(std::array<int, 3> dims) const;

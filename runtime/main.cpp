@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -243,6 +244,17 @@ int simulate_command(ExecutionArgs &e, const std::string &source,
   } catch (const hardrod::RunInterrupted &err) {
     if (comm.is_root()) fmt::print(stderr, "hardrod: {}\n", err.what());
     return 4;
+  } catch (const std::bad_alloc &) {
+    fmt::print(stderr, "hardrod: out of memory on rank {} (a smaller system.n, or more ranks)\n",
+               comm.rank());
+    if (comm.size() > 1) comm.abort(70);
+    return 70;
+  } catch (const std::exception &err) {
+    // Not one of the run's own errors (e.g. out of memory): it may have reached this rank
+    // only, so the job ends on every rank rather than leaving the others waiting.
+    fmt::print(stderr, "hardrod: internal error on rank {}: {}\n", comm.rank(), err.what());
+    if (comm.size() > 1) comm.abort(70);
+    return 70;
   }
   return 0;
 }
