@@ -492,6 +492,9 @@ Particles make_isotropic(long long n, const Shape &shape, const Box &target, std
           std::to_string(run.overlapping_pairs()) +
           " overlapping pairs; lower the density or allow more sweeps");
     }
+    if (options.stop && options.stop())
+      throw CompressionStopped("make_isotropic: stopped on request after " +
+                               std::to_string(out.sweeps) + " sweeps");
     run.sweep();
     ++out.sweeps;
     if (run.may_shrink() && run.try_shrink()) ++out.compressions;

@@ -37,6 +37,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <stdexcept>
 
 #include "kernels/box.hpp"
 #include "kernels/particles.hpp"
@@ -50,6 +52,15 @@ struct CompressionOptions {
   double max_seconds = 0;                // give up after this long; 0 = no limit
   double overlap_fraction = 0.2;         // overlapping pairs per body a box shrink may leave
   double max_shrink = 0.02;              // largest relative shrink of a side per box move
+  // Asked between sweeps, if set: true ends the compression with CompressionStopped (a stop
+  // signal during a long set-up).
+  std::function<bool()> stop;
+};
+
+// The compression ended because CompressionOptions::stop asked for it.
+class CompressionStopped : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 struct CompressionReport {

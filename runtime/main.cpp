@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "kernels/isotropic_start.hpp"
 #include "runtime/analyze.hpp"
 #include "runtime/checkpoint.hpp"
 #include "runtime/comm.hpp"
@@ -243,6 +244,12 @@ int simulate_command(ExecutionArgs &e, const std::string &source,
     return 2;
   } catch (const hardrod::RunInterrupted &err) {
     if (comm.is_root()) fmt::print(stderr, "hardrod: {}\n", err.what());
+    return 4;
+  } catch (const hardrod::CompressionStopped &) {
+    fmt::print(stderr,
+               "hardrod: stopped by {} during the set-up (the isotropic compression), before "
+               "anything was written: run the command again\n",
+               hardrod::stop_signal_name());
     return 4;
   } catch (const std::bad_alloc &) {
     fmt::print(stderr, "hardrod: out of memory on rank {} (a smaller system.n, or more ranks)\n",

@@ -17,6 +17,7 @@
 #include "kernels/rotor_constraints.hpp"
 #include "kernels/thermostat.hpp"
 #include "runtime/hoomd_gsd.hpp"
+#include "runtime/signals.hpp"
 #include "runtime/snapshot.hpp"
 
 namespace hardrod {
@@ -46,7 +47,7 @@ void check_start_overlaps(const Scene &scene, const Particles &all, const std::s
 // random isotropic state (every rank computes the same, deterministic in the seed), or
 // positions and axes from an H5MD frame (n and box must match the scene); fresh velocities.
 // A GSD frame (runtime/hoomd_gsd.hpp) brings its velocities if it has any.
-Particles initial_bodies(const Scene &scene) {
+Particles initial_bodies(const Scene &scene, bool stoppable) {
   Particles all;
   if (scene.configuration == Configuration::kFile && is_gsd_path(scene.init_file)) {
     all = start_from_gsd(scene);
@@ -75,7 +76,11 @@ Particles initial_bodies(const Scene &scene) {
     check_start_overlaps(scene, all, key, f.frame);
   } else if (scene.configuration == Configuration::kIsotropic) {
     try {
-      all = make_isotropic(scene.n, scene.shape, scene.box, scene.seed);
+      CompressionOptions options;
+      if (stoppable) options.stop = [] { return stop_signal() != 0; };
+      all = make_isotropic(scene.n, scene.shape, scene.box, scene.seed, options);
+    } catch (const CompressionStopped &) {
+      throw;
     } catch (const std::exception &e) {
       throw SceneError({fmt::format("init.configuration = \"isotropic\": {}", e.what())});
     }
@@ -87,7 +92,7 @@ Particles initial_bodies(const Scene &scene) {
 }
 
 Simulation::Simulation(Scene scene, ParallelOptions parallel) : scene_(std::move(scene)) {
-  configure(initial_bodies(scene_), parallel);
+  configure(initial_bodies(scene_, comm_.size() == 1), parallel);
 }
 
 Simulation::Simulation(Scene scene, Particles bodies, ParallelOptions parallel,

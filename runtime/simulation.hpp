@@ -120,7 +120,9 @@ struct Observation {
 // lattice, a random isotropic state compressed to the density (init.configuration =
 // "isotropic"), or positions and axes from an H5MD frame ("file"; n and box must match).
 // Velocities fresh at the scene's temperature. Throws SceneError.
-Particles initial_bodies(const Scene &scene);
+// `stoppable`: a stop signal ends a long set-up (the isotropic compression) with
+// CompressionStopped; only on one rank, where no other rank can be left waiting.
+Particles initial_bodies(const Scene &scene, bool stoppable = false);
 
 class Simulation {
  public:
