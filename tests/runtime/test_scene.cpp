@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "runtime/scene.hpp"
+#include "tests/scene_problems.hpp"
 
 namespace hardrod {
 namespace {
@@ -61,29 +62,9 @@ std::string rods(long long n, const std::string &density, const std::string &lat
          "\naxis = \"" + axis + "\"\n[run]\ndt = 1e-4\nsteps = 10\n";
 }
 
-// The problems of a scene that must fail; fails the test if it parses.
-std::vector<std::string> problems_of(const std::string &text,
-                                     const std::vector<std::string> &overrides = {}) {
-  try {
-    parse_scene(text, overrides);
-  } catch (const SceneError &error) {
-    return error.problems();
-  }
-  ADD_FAILURE() << "scene parsed but should not have:\n" << text;
-  return {};
-}
-
-bool contains(const std::vector<std::string> &problems, const std::string &fragment) {
-  return std::any_of(problems.begin(), problems.end(), [&](const std::string &problem) {
-    return problem.find(fragment) != std::string::npos;
-  });
-}
-
-std::string lines(const std::vector<std::string> &problems) {
-  std::string text;
-  for (const auto &problem : problems) text += "  " + problem + "\n";
-  return text;
-}
+using testing::contains;
+using testing::lines;
+using testing::problems_of;
 
 bool same(const Scene &a, const Scene &b) {
   return a.shape_name == b.shape_name && a.shape.length == b.shape.length &&

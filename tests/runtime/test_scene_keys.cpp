@@ -11,6 +11,7 @@
 
 #include "runtime/scene.hpp"
 #include "runtime/scene_keys.hpp"
+#include "tests/scene_problems.hpp"
 
 namespace hardrod {
 namespace {
@@ -49,29 +50,9 @@ fourier_kmax = 6
 fourier_interval = 0
 )";
 
-// The problems of a scene that must fail; fails the test if it parses.
-std::vector<std::string> problems_of(const std::string &text,
-                                     const std::vector<std::string> &overrides) {
-  try {
-    parse_scene(text, overrides);
-  } catch (const SceneError &error) {
-    return error.problems();
-  }
-  ADD_FAILURE() << "scene parsed but should not have:\n" << text;
-  return {};
-}
-
-bool contains(const std::vector<std::string> &problems, const std::string &fragment) {
-  return std::any_of(problems.begin(), problems.end(), [&](const std::string &problem) {
-    return problem.find(fragment) != std::string::npos;
-  });
-}
-
-std::string lines(const std::vector<std::string> &problems) {
-  std::string text;
-  for (const auto &problem : problems) text += "  " + problem + "\n";
-  return text;
-}
+using testing::contains;
+using testing::lines;
+using testing::problems_of;
 
 // The key table is the one spelling of the keys: every key has help, is known to --set, and
 // the canonical writer writes exactly the table's keys that apply (densities as the box).
