@@ -163,20 +163,34 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   w.cand.resize(total);
   if (s.unique_images) w.cx.resize(total), w.cy.resize(total), w.cz.resize(total);
   if (s.unique_images && s.rods) w.ex.resize(total), w.ey.resize(total), w.ez.resize(total);
-  const std::uint32_t *member = cl.order.data();
+  // Locals: the stores below must not make the compiler reload the search's arrays.
+  const std::uint32_t *__restrict member = cl.order.data();
+  const std::uint32_t *__restrict start = cl.cell_start.data();
+  const bool unique_images = s.unique_images, rods = s.rods;
+  const double *__restrict fx = s.fx.data(), *__restrict fy = s.fy.data(),
+                           *__restrict fz = s.fz.data();
+  const double *__restrict pex = s.p.ex.data(), *__restrict pey = s.p.ey.data(),
+                           *__restrict pez = s.p.ez.data();
+  std::uint32_t *__restrict cand = w.cand.data();
+  double *__restrict ox = w.cx.data(), *__restrict oy = w.cy.data(), *__restrict oz = w.cz.data();
+  double *__restrict oex = w.ex.data(), *__restrict oey = w.ey.data(),
+                     *__restrict oez = w.ez.data();
   std::size_t q = 0;
-  for (const CellScratch::Gathered &g : w.cells_here)
-    for (std::uint32_t b = cl.cell_start[g.cell]; b < cl.cell_start[g.cell + 1]; ++b, ++q) {
+  for (const CellScratch::Gathered &g : w.cells_here) {
+    const double sx = g.sx, sy = g.sy, sz = g.sz;
+    const std::uint32_t end = start[g.cell + 1];
+    for (std::uint32_t b = start[g.cell]; b < end; ++b, ++q) {
       const std::uint32_t j = member[b];
-      w.cand[q] = j;
-      if (s.unique_images) {
-        w.cx[q] = s.fx[j] + g.sx;
-        w.cy[q] = s.fy[j] + g.sy;
-        w.cz[q] = s.fz[j] + g.sz;
-        if (s.rods) w.ex[q] = s.p.ex[j], w.ey[q] = s.p.ey[j], w.ez[q] = s.p.ez[j];
+      cand[q] = j;
+      if (unique_images) {
+        ox[q] = fx[j] + sx;
+        oy[q] = fy[j] + sy;
+        oz[q] = fz[j] + sz;
+        if (rods) oex[q] = pex[j], oey[q] = pey[j], oez[q] = pez[j];
       }
     }
-  return cl.cell_start[c + 1] - cl.cell_start[c];
+  }
+  return start[c + 1] - start[c];
 }
 
 // Rods with unique images: the centre test and the side-by-side bound (|r_perp| - h |e_j . n|
@@ -205,9 +219,11 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
     const bool apart = lower > 0.0 && lower * lower > loose_reach2 * rp2;
     k[q] = (dx * dx + dy * dy + dz * dz < gather_reach2 && !apart) ? 1.0 : 0.0;
   }
+  std::uint32_t *__restrict near = w.near.data();
+  const std::uint32_t *__restrict cand = w.cand.data();
   std::uint32_t kept = 0;
   for (std::uint32_t q = a + 1; q < ncand; ++q) {
-    w.near[kept] = w.cand[q];
+    near[kept] = cand[q];
     kept += k[q] != 0.0;
   }
   return kept;
@@ -232,28 +248,35 @@ std::uint32_t preselect_centres(const PairSearch &s, CellScratch &w, std::uint32
 // segments are within the reach is listed with its slack.
 void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near, std::uint32_t kept,
                 std::vector<ListedPair> &mine) {
+  // The search's constants in locals: the stores into `mine` could otherwise alias them
+  // and force a reload per candidate.
   const Particles &p = s.p;
+  const Box box = s.box;
+  const Vec3 inverse = s.inverse;
+  const bool rods = s.rods;
+  const double h = s.h, reach = s.reach, diameter = s.diameter;
+  const double centre_reach2 = s.centre_reach2, prefilter_reach2 = s.prefilter_reach2;
   const Vec3 ei = p.axis(i);
   for (std::uint32_t k = 0; k < kept; ++k) {
     const std::uint32_t j = near[k];
-    const Vec3 rij = s.box.minimum_image(p.position(j) - p.position(i), s.inverse);
-    if (!(norm2(rij) < s.centre_reach2)) continue;
+    const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
+    if (!(norm2(rij) < centre_reach2)) continue;
     const Vec3 ej = p.axis(j);
     // Cheap lower bound first: with n the unit vector along r's part perpendicular
     // to e_i, every point pair of the two segments is at least |r_perp| - h |e_j . n|
     // apart. Side-by-side rods further than the reach are dropped here without the
     // segment distance (most candidates in a nematic). Squared, without a root;
     // the margin keeps rounding from dropping a pair inside the reach.
-    if (s.rods) {
+    if (rods) {
       const Vec3 rperp = rij - dot(rij, ei) * ei;
       const double rp2 = norm2(rperp);
-      const double lower = rp2 - s.h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
-      if (lower > 0.0 && lower * lower > s.prefilter_reach2 * rp2) continue;
+      const double lower = rp2 - h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
+      if (lower > 0.0 && lower * lower > prefilter_reach2 * rp2) continue;
     }
-    const SegmentClosest sc = segment_closest(rij, ei, s.h, ej, s.h);
+    const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
     const double d = std::sqrt(sc.dist2);
-    if (d >= s.reach) continue;
-    mine.push_back({i, j, d - s.diameter - kDistanceSafetyMargin, 0.0});
+    if (d >= reach) continue;
+    mine.push_back({i, j, d - diameter - kDistanceSafetyMargin, 0.0});
   }
 }
 

@@ -94,9 +94,13 @@ inline void Particles::resize(std::size_t n) {
 
 inline void Particles::permute(const std::vector<std::uint32_t> &order) {
   std::vector<double> scratch(order.size());
-  const auto reorder = [&](std::vector<double> &v) {
-    for (std::size_t k = 0; k < order.size(); ++k) scratch[k] = v[order[k]];
-    std::copy(scratch.begin(), scratch.end(), v.begin());
+  const std::size_t m = order.size();
+  const std::uint32_t *__restrict from = order.data();
+  double *__restrict to = scratch.data();
+  const auto reorder = [m, from, to](std::vector<double> &field) {
+    double *__restrict v = field.data();
+    for (std::size_t k = 0; k < m; ++k) to[k] = v[from[k]];
+    std::copy(to, to + m, v);
   };
   for (BodyField f : kStateFields) reorder(this->*f);
   for (BodyField f : kDerivedFields) reorder(this->*f);
