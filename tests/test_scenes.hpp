@@ -2,8 +2,10 @@
 #pragma once
 
 #include <cmath>
+#include <string>
 
 #include "runtime/scene.hpp"
+#include "runtime/simulation.hpp"
 
 namespace hardrod::testing {
 
@@ -42,6 +44,16 @@ inline Scene hard_spheres(int per_side, double eta, double dt = 1e-4) {
   s.thermostat_interval = 0;
   s.sample_interval = 100;
   return s;
+}
+
+// What a start from `scene` fails with (initial_bodies' SceneError), "" if it starts.
+inline std::string start_error(const Scene &scene) {
+  try {
+    initial_bodies(scene);
+  } catch (const SceneError &e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace hardrod::testing

@@ -110,14 +110,6 @@ struct GsdFiles : ::testing::Test {
     w.append(sim.gather_bodies(), sim.current_step(), sim.time());
     return path;
   }
-  static std::string error_of(const Scene &scene) {
-    try {
-      initial_bodies(scene);
-    } catch (const SceneError &e) {
-      return e.what();
-    }
-    return "";
-  }
 };
 
 TEST_F(GsdFiles, LayerWrittenIsReadBackWithFrameZeroAsDefault) {
@@ -204,16 +196,19 @@ TEST_F(GsdFiles, StartRefusesAFrameThatDoesNotFitTheSceneNamingFileAndValue) {
   scene.init_file = gsd;
   Scene more = scene;
   more.n = 300;
-  EXPECT_NE(error_of(more).find("holds 288 particles, system.n = 300"), std::string::npos)
-      << error_of(more);
+  EXPECT_NE(testing::start_error(more).find("holds 288 particles, system.n = 300"),
+            std::string::npos)
+      << testing::start_error(more);
   Scene wider = scene;
   wider.box.length.x *= 1.0 + 1e-6;
-  EXPECT_NE(error_of(wider).find("the scene's is"), std::string::npos) << error_of(wider);
-  EXPECT_NE(error_of(wider).find("init.file = \"" + gsd + "\""), std::string::npos);
+  EXPECT_NE(testing::start_error(wider).find("the scene's is"), std::string::npos)
+      << testing::start_error(wider);
+  EXPECT_NE(testing::start_error(wider).find("init.file = \"" + gsd + "\""), std::string::npos);
   Scene later = scene;
   later.init_frame = 1;  // one frame exported
-  EXPECT_NE(error_of(later).find("frame 1 requested, the file has 1 frame(s)"), std::string::npos)
-      << error_of(later);
+  EXPECT_NE(testing::start_error(later).find("frame 1 requested, the file has 1 frame(s)"),
+            std::string::npos)
+      << testing::start_error(later);
   // A tilted box, and a quaternion of zeros.
   for (const char *what : {"tilt", "zero"}) {
     const std::string bad = (dir / (std::string(what) + ".gsd")).string();
@@ -228,9 +223,10 @@ TEST_F(GsdFiles, StartRefusesAFrameThatDoesNotFitTheSceneNamingFileAndValue) {
     w.finish();
     Scene s = scene;
     s.init_file = bad;
-    EXPECT_NE(error_of(s).find(std::string(what) == "tilt" ? "tilts xy = 0.1" : "is zero"),
-              std::string::npos)
-        << error_of(s);
+    EXPECT_NE(
+        testing::start_error(s).find(std::string(what) == "tilt" ? "tilts xy = 0.1" : "is zero"),
+        std::string::npos)
+        << testing::start_error(s);
   }
 }
 

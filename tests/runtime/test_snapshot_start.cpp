@@ -41,15 +41,6 @@ struct SnapshotStart : ::testing::Test {
     w.append(*last, sim.current_step(), sim.time());
     return path;
   }
-
-  static std::string error_of(const Scene &scene) {
-    try {
-      initial_bodies(scene);
-    } catch (const SceneError &e) {
-      return e.what();
-    }
-    return "";
-  }
 };
 
 TEST_F(SnapshotStart, TakesPositionsAndAxesOfTheFrameBitForBit) {
@@ -92,32 +83,37 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   scene.init_file = write_run(&last);
 
   scene.init_frame = 2;
-  EXPECT_NE(error_of(scene).find("frame 2 requested, the file has 2 frame(s)"), std::string::npos)
-      << error_of(scene);
+  EXPECT_NE(testing::start_error(scene).find("frame 2 requested, the file has 2 frame(s)"),
+            std::string::npos)
+      << testing::start_error(scene);
   scene.init_frame = -3;
-  EXPECT_NE(error_of(scene).find("the file has 2"), std::string::npos);
+  EXPECT_NE(testing::start_error(scene).find("the file has 2"), std::string::npos);
   scene.init_frame = -1;
 
   Scene other_n = scene;
   other_n.n = 287;
-  EXPECT_NE(error_of(other_n).find("holds 288 bodies, system.n = 287"), std::string::npos)
-      << error_of(other_n);
+  EXPECT_NE(testing::start_error(other_n).find("holds 288 bodies, system.n = 287"),
+            std::string::npos)
+      << testing::start_error(other_n);
 
   Scene other_box = scene;
   other_box.box.length.y *= 1.01;
-  EXPECT_NE(error_of(other_box).find("the scene's is"), std::string::npos) << error_of(other_box);
+  EXPECT_NE(testing::start_error(other_box).find("the scene's is"), std::string::npos)
+      << testing::start_error(other_box);
 
   Scene missing = scene;
   missing.init_file = (dir / "absent.h5").string();
-  EXPECT_NE(error_of(missing).find("init.file = \"" + missing.init_file + "\""), std::string::npos)
-      << error_of(missing);
-  EXPECT_NE(error_of(missing).find(": No such file or directory"), std::string::npos)
-      << error_of(missing);
+  EXPECT_NE(testing::start_error(missing).find("init.file = \"" + missing.init_file + "\""),
+            std::string::npos)
+      << testing::start_error(missing);
+  EXPECT_NE(testing::start_error(missing).find(": No such file or directory"), std::string::npos)
+      << testing::start_error(missing);
 
   Scene garbage = scene;
   garbage.init_file = (dir / "garbage.h5").string();
   std::ofstream(garbage.init_file) << "not hdf5 at all";
-  EXPECT_NE(error_of(garbage).find("not an HDF5 file"), std::string::npos) << error_of(garbage);
+  EXPECT_NE(testing::start_error(garbage).find("not an HDF5 file"), std::string::npos)
+      << testing::start_error(garbage);
 
   // NaN and a non-unit axis inside an otherwise valid file.
   Particles bad = last;
@@ -128,8 +124,9 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   }
   Scene nan_file = scene;
   nan_file.init_file = (dir / "nan.h5").string();
-  EXPECT_NE(error_of(nan_file).find("body 10: position or axis not finite"), std::string::npos)
-      << error_of(nan_file);
+  EXPECT_NE(testing::start_error(nan_file).find("body 10: position or axis not finite"),
+            std::string::npos)
+      << testing::start_error(nan_file);
   bad = last;
   bad.ey[3] += 0.1;
   {
@@ -138,13 +135,14 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   }
   Scene axis_file = scene;
   axis_file.init_file = (dir / "axis.h5").string();
-  EXPECT_NE(error_of(axis_file).find("body 3: axis has length"), std::string::npos)
-      << error_of(axis_file);
+  EXPECT_NE(testing::start_error(axis_file).find("body 3: axis has length"), std::string::npos)
+      << testing::start_error(axis_file);
   // A trajectory with no frame at all.
   { TrajectoryWriter w((dir / "empty.h5").string(), scene); }
   Scene empty = scene;
   empty.init_file = (dir / "empty.h5").string();
-  EXPECT_NE(error_of(empty).find("the file has 0 frame(s)"), std::string::npos) << error_of(empty);
+  EXPECT_NE(testing::start_error(empty).find("the file has 0 frame(s)"), std::string::npos)
+      << testing::start_error(empty);
 }
 
 // A frame whose bodies overlap is refused at the start, naming the pair and the depth, not
@@ -155,7 +153,7 @@ TEST_F(SnapshotStart, OverlappingFrameIsRefusedAtTheStart) {
   scene.configuration = Configuration::kFile;
   scene.init_file = write_run(&last);
   scene.init_frame = 0;
-  EXPECT_EQ(error_of(scene), "");  // the lattice touches nowhere
+  EXPECT_EQ(testing::start_error(scene), "");  // the lattice touches nowhere
   // The same frame with one body moved half a diameter beside another.
   Particles bodies = Simulation(scene).gather_bodies();
   bodies.x[7] = bodies.x[3];
@@ -163,7 +161,7 @@ TEST_F(SnapshotStart, OverlappingFrameIsRefusedAtTheStart) {
   bodies.z[7] = bodies.z[3];
   scene.init_file = (dir / "overlapping.h5").string();
   TrajectoryWriter(scene.init_file, scene).append(bodies, 0, 0.0);
-  const std::string error = error_of(scene);
+  const std::string error = testing::start_error(scene);
   EXPECT_NE(error.find("frame 0: the start configuration overlaps: bodies "), std::string::npos)
       << error;
   EXPECT_NE(error.find("more than run.max_overlap = 0.05 D"), std::string::npos) << error;
