@@ -1,0 +1,49 @@
+// The exact first contact time of two capsules in free flight within a time step (issue 20,
+// run.method = "exact"): the kernel the event processing asks "when do these two first touch?".
+// Physics: each body translates uniformly and its axis turns about a fixed angular velocity
+// (a free linear rotor, docs/physics.md section 3). Spheres have a closed form; rods use
+// conservative advancement on a rigorous lower bound of the surface gap, so no contact is ever
+// skipped. Pure functions, no state, no threads, no I/O.
+#pragma once
+
+#include "kernels/segment_geometry.hpp"
+#include "kernels/vec3.hpp"
+
+namespace hardrod {
+
+// One body's free flight inside a time step, from time t0 on: centre x + v (t - t0); axis e
+// turned about w by the angle |w| (t - t0) (exact Rodrigues rotation of a free linear rotor:
+// e cos a + (w^ x e) sin a + w^ (w^ . e)(1 - cos a), with the small-angle case by series,
+// never dividing by |w| = 0). Spheres: w = 0.
+struct Flight {
+  Vec3 x, e, v, w;
+  double t0 = 0.0;
+  Vec3 position(double t) const;
+  Vec3 axis(double t) const;
+};
+
+struct ContactTimeSettings {
+  double tolerance = 1e-10;  // a contact: surface gap <= tolerance (in D) while the pair approaches
+  int max_iterations = 200;  // gap evaluations per search before it gives up (converged = false)
+};
+
+struct ContactTime {
+  bool found = false;     // a contact in [t_from, t_to]
+  bool converged = true;  // false: max_iterations used up; then t is a rigorous lower bound of
+                          // the first contact
+  double t = 0.0;         // the contact time (found), or how far the search proved the pair apart
+  int iterations = 0;     // gap evaluations (segment distances) used
+};
+
+// The first time t in [t_from, t_to] at which capsules a and b (axis half length h, diameter D;
+// h = 0: spheres) touch: surface gap g(t) = |closest points of the axes| - D <= tolerance while
+// approaching (dg/dt < 0). b's centre is already the periodic image nearest a's (the caller
+// applies the minimum image). Never later than the true first contact (no contact is skipped):
+// the search is rigorous, not sampled. Spheres: closed form (stable quadratic root).
+// If the pair touches and separates at t_from (a collision between them was just processed),
+// that touch is not reported: the search starts once they part, and finds a later contact if
+// there is one.
+ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
+                          double t_to, const ContactTimeSettings &settings);
+
+}  // namespace hardrod
