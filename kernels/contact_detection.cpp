@@ -13,7 +13,7 @@
 namespace hardrod {
 
 bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-                  std::uint32_t a, std::uint32_t b, Contact &c, double &distance) {
+                  std::uint32_t a, std::uint32_t b, Contact &c, double &distance, double reach) {
   // Canonical orientation by global id: the same arithmetic on every rank.
   const std::uint32_t i = p.id[a] < p.id[b] ? a : b;
   const std::uint32_t j = p.id[a] < p.id[b] ? b : a;
@@ -22,7 +22,7 @@ bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const
   const Vec3 ei = p.axis(i), ej = p.axis(j);
   const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
   distance = std::sqrt(sc.dist2);
-  if (!(distance < shape.diameter)) return false;
+  if (!(distance < shape.diameter + reach)) return false;
   c.i = i;
   c.j = j;
   c.id_i = p.id[i];
@@ -51,18 +51,22 @@ void lower_to(double &target, double value) {
 }
 
 // The narrow phase of listed pair k (bodies at motion bounds summing to `moved`): a contact
-// if they overlap, and the pair's slack renewed from the distance measured.
+// if they overlap, and the pair's slack renewed from the distance measured. With `ahead`
+// (the exact method, see contact_detection.hpp) the bounds already hold the step's whole
+// flight while the bodies are still at its start: the pair is reported when its gap is below
+// the two flights, and the slack is renewed for the start.
 void measure(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-             NeighborList &list, std::size_t k, double moved, std::vector<Contact> &found,
-             double &max_depth) {
+             NeighborList &list, std::size_t k, double moved, const double *ahead,
+             std::vector<Contact> &found, double &max_depth) {
   Contact c;
   double d = 0.0;
   ListedPair &pair = list.pairs[k];
-  if (make_contact(p, box, inverse, shape, pair.first, pair.second, c, d)) {
+  const double reach = ahead ? 2.0 * (ahead[pair.first] + ahead[pair.second]) : 0.0;
+  if (make_contact(p, box, inverse, shape, pair.first, pair.second, c, d, reach)) {
     max_depth = std::max(max_depth, c.depth);
     found.push_back(c);
   }
-  pair.recheck_at = moved + (d - shape.diameter) - kDistanceSafetyMargin;
+  pair.recheck_at = (moved - reach) + (d - shape.diameter) - kDistanceSafetyMargin;
 }
 
 // Pass 1 of the watched detection over bodies [lo, hi): flag the bodies whose motion bound
@@ -110,7 +114,7 @@ WatchedDetection::WatchedDetection(int threads)
       depth(static_cast<std::size_t>(threads)) {}
 
 void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
-                            NeighborList &list, WatchedDetection &shared) {
+                            NeighborList &list, WatchedDetection &shared, const double *ahead) {
   const long n = static_cast<long>(list.active);
   ListedPair *pairs = list.pairs.data();
   const std::uint32_t *start = list.pairs_start.data();
@@ -150,7 +154,7 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
       const double moved = bound[f] + bound[s];
       if (moved >= pair.recheck_at) {  // the slack is used up: measure
         ++tests;
-        measure(p, box, inverse, shape, list, k, moved, mine, max_depth);
+        measure(p, box, inverse, shape, list, k, moved, ahead, mine, max_depth);
       }
       // The rest of the slack in proportion to the bounds so far: bounds grow about
       // linearly, so both bodies then reach their allowances about when the pair's
@@ -175,10 +179,10 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
 
 DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
                                         NeighborList &list, WatchedDetection &shared,
-                                        std::vector<Contact> &contacts) {
+                                        std::vector<Contact> &contacts, const double *ahead) {
   if (!shared.watching) {  // too many flagged: the full pass, now and until the next build
     list.watching = false;
-    return detect_contacts_all_pairs(p, box, shape, list, contacts);
+    return detect_contacts_all_pairs(p, box, shape, list, contacts, ahead);
   }
   DetectionStats out;
   out.watched = true;
@@ -203,18 +207,20 @@ DetectionStats finish_watched_detection(const Particles &p, const Box &box, cons
 // (arm_watches). The pairs measured, and so the slacks, are those of a pass over the
 // whole list (detect_contacts_all_pairs), for any thread count.
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
-                               NeighborList &list, std::vector<Contact> &contacts) {
-  if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts);
+                               NeighborList &list, std::vector<Contact> &contacts,
+                               const double *ahead) {
+  if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts, ahead);
   // Threaded exactly when the integration is (particles.hpp).
   const int nthreads = team_threads(static_cast<long>(list.active));
   WatchedDetection shared(nthreads);
 #pragma omp parallel num_threads(nthreads)
-  detect_watched_in_team(p, box, shape, list, shared);
-  return finish_watched_detection(p, box, shape, list, shared, contacts);
+  detect_watched_in_team(p, box, shape, list, shared, ahead);
+  return finish_watched_detection(p, box, shape, list, shared, contacts, ahead);
 }
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
-                                         NeighborList &list, std::vector<Contact> &contacts) {
+                                         NeighborList &list, std::vector<Contact> &contacts,
+                                         const double *ahead) {
   const int nthreads = omp_get_max_threads();
   std::vector<std::vector<Contact>> found(nthreads);
   long long tests = 0;
@@ -232,7 +238,7 @@ DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, con
       const double moved = bound[pair.first] + bound[pair.second];
       if (moved < pair.recheck_at) continue;  // cannot have closed its gap yet
       ++tests;
-      measure(p, box, inverse, shape, list, k, moved, mine, max_depth);
+      measure(p, box, inverse, shape, list, k, moved, ahead, mine, max_depth);
     }
   }
   merge_sorted(found, contacts);

@@ -23,8 +23,14 @@ struct DetectionStats {
   bool watched = false;              // through the watches, not a pass over every pair
 };
 
+// `ahead`, for the exact method (kernels/exact_collisions.hpp): the bodies are at the start of
+// the step, their motion bounds already include the whole step's free flight, and ahead[i] is
+// body i's growth per half step (Particles::grow). Then a "contact" is a pair that could touch
+// within the step (gap below the two flights, 2 (ahead[i] + ahead[j])), its depth negative
+// when apart, and slacks are renewed for the start positions. nullptr: the midpoint method.
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
-                               NeighborList &list, std::vector<Contact> &contacts);
+                               NeighborList &list, std::vector<Contact> &contacts,
+                               const double *ahead = nullptr);
 
 // The watched detection's parts, for a team of threads that has other work in the same
 // parallel region (advance_to_midpoint, free_flight.hpp): every thread of the team calls
@@ -40,21 +46,25 @@ struct WatchedDetection {
   bool watching = true;
 };
 void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
-                            NeighborList &list, WatchedDetection &shared);
+                            NeighborList &list, WatchedDetection &shared,
+                            const double *ahead = nullptr);
 DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
                                         NeighborList &list, WatchedDetection &shared,
-                                        std::vector<Contact> &contacts);
+                                        std::vector<Contact> &contacts,
+                                        const double *ahead = nullptr);
 
 // The reference: the same filter as a pass over every listed pair (how the watches must
 // behave, and what they save). It renews slacks but not allowances: a list it has used is
 // not fit for detect_contacts until arm_watches.
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
-                                         NeighborList &list, std::vector<Contact> &contacts);
+                                         NeighborList &list, std::vector<Contact> &contacts,
+                                         const double *ahead = nullptr);
 
 // Fill the geometric fields of a contact between bodies a and b (any order; the result is
-// canonical). Returns false when the pair does not overlap (distance >= D). `inverse` is
-// box.inverse_length().
+// canonical). Returns false when the pair does not overlap (distance >= D), or, with `reach`,
+// is not closer than D + reach. `inverse` is box.inverse_length().
 bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-                  std::uint32_t a, std::uint32_t b, Contact &c, double &distance);
+                  std::uint32_t a, std::uint32_t b, Contact &c, double &distance,
+                  double reach = 0.0);
 
 }  // namespace hardrod

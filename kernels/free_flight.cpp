@@ -99,7 +99,9 @@ double max_series_w2(double half_dt) { return (kSeriesAngle / half_dt) * (kSerie
 // passes, with one load and store of every body. The motion constants are read, not
 // computed (refresh_motion). Bodies [lo, hi), no threads of its own (element-wise: any
 // split gives the same bits).
-template <bool Rotate, int Halves>
+// Grow = false (the exact method's flight) leaves the motion bounds alone: its step grew
+// them before the flight (grow_bounds).
+template <bool Rotate, int Halves, bool Grow = true>
 double drift(Particles &p, long lo, long hi, double half_dt) {
   double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(), *__restrict ez = p.ez.data();
@@ -138,12 +140,12 @@ double drift(Particles &p, long lo, long hi, double half_dt) {
       xi += dx;
       yi += dy;
       zi += dz;
-      bi += gi;
+      if constexpr (Grow) bi += gi;
     }
     x[i] = xi;
     y[i] = yi;
     z[i] = zi;
-    bound[i] = bi;
+    if constexpr (Grow) bound[i] = bi;
     largest = largest > bi ? largest : bi;
   }
   if (large_angles > 0) {
@@ -218,6 +220,32 @@ double half_step(Particles &p, std::size_t count, const Shape &shape, double hal
 double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
   refresh_motion(p, count, shape, half_dt);
   return free_flight(p, count, shape, half_dt, 2);
+}
+
+double grow_bounds(Particles &p, std::size_t count) {
+  const long n = static_cast<long>(count);
+  double *__restrict bound = p.motion_bound.data();
+  const double *__restrict grow = p.grow.data();
+  double largest = 0.0;
+#pragma omp simd reduction(max : largest)
+  for (long i = 0; i < n; ++i) {
+    const double b = (bound[i] + grow[i]) + grow[i];  // as drift's two halves add them
+    bound[i] = b;
+    largest = largest > b ? largest : b;
+  }
+  return largest;
+}
+
+void fly_step(Particles &p, std::size_t count, const Shape &shape, double half_dt) {
+  const long n = static_cast<long>(count);
+#pragma omp parallel num_threads(team_threads(n))
+  {
+    const auto [lo, hi] = team_block(n, omp_get_thread_num(), omp_get_num_threads());
+    if (shape.is_sphere())
+      drift<false, 2, false>(p, lo, hi, half_dt);
+    else
+      drift<true, 2, false>(p, lo, hi, half_dt);
+  }
 }
 
 MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Shape &shape,

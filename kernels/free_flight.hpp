@@ -55,6 +55,15 @@ double half_step(Particles &p, std::size_t count, const Shape &shape, double hal
 // happens between them (no contacts are resolved between the two halves of one pass).
 double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt);
 
+// The exact method's step (kernels/exact_collisions.hpp) grows the motion bounds before it
+// moves the bodies, so that the detection at the step's start sees the whole step's flight:
+// grow_bounds adds two half steps' growth to bodies [0, count) (the same additions as
+// two_half_steps; returns the largest bound), and fly_step then moves them by the two half
+// steps (positions and axes, the same bits as two_half_steps) leaving the bounds alone.
+// Both read the motion constants as they are (refresh_motion).
+double grow_bounds(Particles &p, std::size_t count);
+void fly_step(Particles &p, std::size_t count, const Shape &shape, double half_dt);
+
 // Free flight to the midpoint (one or two half steps, as half_step and two_half_steps, with
 // the motion constants as they are) and, when the list keeps its watches for these bodies and
 // these bounds do not expire it, the detection there, in one parallel region: one fork and

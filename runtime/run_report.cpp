@@ -174,6 +174,33 @@ nlohmann::json spanning_json(Simulation &sim) {
           {"from_results", comm.sum("summary", s.from_results)}};
 }
 
+// The exact method's work since this process started (one rank for now): totals and per step.
+nlohmann::json exact_json(Simulation &sim) {
+  const ExactRecord &r = sim.exact_record();
+  const ExactStats &t = r.totals;
+  const double steps = r.steps > 0 ? static_cast<double>(r.steps) : 1.0;
+  const auto per_step = [&](long long v) { return static_cast<double>(v) / steps; };
+  return {{"steps", r.steps},
+          {"collisions", t.collisions},
+          {"events", t.events},
+          {"searches", t.searches},
+          {"repredictions", t.repredictions},
+          {"root_iterations", t.root_iterations},
+          {"unconverged_searches", t.unconverged},
+          {"candidates", t.candidates},
+          {"clusters", t.clusters},
+          {"largest_cluster", t.largest_cluster},
+          {"regrown", t.regrown},
+          {"fallbacks", t.fallbacks},
+          {"rebuilt_in_step", r.rebuilt_in_step},
+          {"collisions_per_step", per_step(t.collisions)},
+          {"events_per_step", per_step(t.events)},
+          {"repredictions_per_step", per_step(t.repredictions)},
+          {"root_iterations_per_step", per_step(t.root_iterations)},
+          {"root_iterations_per_search",
+           t.searches > 0 ? static_cast<double>(t.root_iterations) / t.searches : 0.0}};
+}
+
 }  // namespace
 
 nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &st,
@@ -252,6 +279,8 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
     const long long watched = comm.sum("summary", sim.detections_watched());
     summary["detect_watched_share"] = all > 0 ? static_cast<double>(watched) / all : 0.0;
   }
+  if (scene.method == kExact) summary["exact"] = exact_json(sim);
+  summary["method"] = scene.method == kExact ? "exact" : "midpoint";
   summary["hardware_counters"] = counters_json(counters);
   summary["communication_per_rank"] = traffic_json(comm, steps_done - outcome.first_step);
   if (!outcome.failure.empty()) summary["error"] = outcome.failure;

@@ -28,6 +28,11 @@ class SceneError : public std::runtime_error {
 // density (kernels/isotropic_start.hpp), or positions and axes read from an H5MD file.
 enum class Configuration { kLattice, kFile, kIsotropic };
 
+// How a step times its collisions (run.method, docs/physics.md section 3): at the step's
+// midpoint once bodies overlap, the paper's method; or at their exact times within the step
+// (kernels/exact_collisions.hpp).
+enum Method : int { kMidpoint = 0, kExact = 1 };
+
 struct Scene {
   // [system]
   std::string shape_name = "spherocylinder";  // "spherocylinder" or "sphere"
@@ -44,6 +49,7 @@ struct Scene {
   double temperature = 1.0;  // kT
   // [run]
   double dt = 1e-4;
+  int method = kMidpoint;  // run.method: how collisions are timed (Method)
   long long equilibration_steps = 0;
   long long steps = 0;
   long long thermostat_interval = 200;  // 0 = off

@@ -22,6 +22,7 @@ constexpr std::string_view kSections[] = {"system", "init", "run", "output", "ob
 constexpr std::string_view kShapes[] = {"spherocylinder", "sphere"};
 constexpr std::string_view kConfigurations[] = {"lattice", "file", "isotropic"};  // enum order
 constexpr std::string_view kAxisNames[] = {"x", "y", "z"};
+constexpr std::string_view kMethods[] = {"midpoint", "exact"};  // Method order
 // What a value of each Type must be, in the order of Type (for the reference).
 constexpr std::string_view kTypeNames[] = {"integer",
                                            "number",
@@ -130,6 +131,10 @@ constexpr KeySpec kKeys[] = {
     // [run]
     {.section = "run", .name = "dt", .type = kReal, .member = &Scene::dt, .limit = positive(),
      .required = true, .help = "time step in tau"},
+    {.section = "run", .name = "method", .type = kChoice, .member = &Scene::method,
+     .limit = one_of(kMethods, "must be \"midpoint\" or \"exact\""),
+     .help = "\"midpoint\" (the paper's: contacts resolved at the step's midpoint) or \"exact\" "
+             "(collisions at their exact times within the step)"},
     {.section = "run", .name = "equilibration_steps", .type = kInteger,
      .member = &Scene::equilibration_steps, .limit = steps_limit(),
      .help = "steps before production (not averaged)"},

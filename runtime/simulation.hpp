@@ -33,6 +33,7 @@
 #include "kernels/contact.hpp"
 #include "kernels/contact_detection.hpp"
 #include "kernels/contact_resolution.hpp"
+#include "kernels/exact_collisions.hpp"
 #include "kernels/exact_sum.hpp"
 #include "kernels/fourier_order_tensor.hpp"
 #include "kernels/free_flight.hpp"
@@ -82,6 +83,14 @@ struct SpanningRecord {
   long long multi_contact = 0;  // of those, with more than one contact
   long long put_together = 0;   // of those, with a contact this rank did not detect
   long long from_results = 0;   // bodies set by another rank's results (more than two ranks)
+};
+
+// The exact method's work (run.method = "exact", kernels/exact_collisions.hpp), this rank's
+// counts since it started: a cost diagnostic, not restored by a restart.
+struct ExactRecord {
+  long long steps = 0;
+  ExactStats totals;              // summed over the steps (largest_cluster: the largest)
+  long long rebuilt_in_step = 0;  // steps solved again on a new list: a body outran the skin
 };
 
 // Running totals since the last call to Simulation::take_interval(), for this rank's
@@ -157,6 +166,7 @@ class Simulation {
   const BalanceOptions &balance_options() const { return balance_; }
   const BalanceRecord &balance_record() const { return balanced_; }
   const SpanningRecord &spanning_record() const { return spanning_; }
+  const ExactRecord &exact_record() const { return exact_; }
 
   // This rank's totals since the previous call; resets them.
   IntervalTotals take_interval();
@@ -235,7 +245,14 @@ class Simulation {
   ResolutionStats resolve_on_ranks(const ContactClusters &clusters, bool exchange);
   void tally(const DetectionStats &detected, const ResolutionStats &resolved,
              const std::vector<char> &counted);
-  void second_half();          // 6
+  void second_half();  // 6
+  // The exact method's step (runtime/exact_step.cpp): 1-6 with the collisions at their times.
+  void advance_exact(long long count);
+  void exact_step();
+  double exact_bounds();                               // 1: the step's flight in the bounds
+  DetectionStats exact_collisions(ExactStats &stats);  // 2 and 5
+  void exact_flight();                                 // 6
+  void tally_exact(const DetectionStats &detected, const ExactStats &stats);
   void restore_constraints();  // 7
   void apply_thermostat();     // 7
   // 8, balance_check.cpp. Collective, every balance_.interval steps: compares the ranks'
@@ -294,6 +311,10 @@ class Simulation {
   BalanceOptions balance_;
   BalanceRecord balanced_;
   SpanningRecord spanning_;
+  ExactSettings exact_settings_;
+  ExactScratch exact_scratch_;
+  std::vector<FlownBody> flown_;
+  ExactRecord exact_;
   // Scratch of resolve_across_ranks, kept between steps so that a step allocates nothing:
   // by local index, whether a body got its velocities this step (all 0 between calls); the
   // bodies of the clusters it resolves; its outgoing messages.

@@ -1,0 +1,474 @@
+// The exact method's collisions within a step (see the header): clusters of candidates, the
+// event-driven pass through one cluster, the check that no cluster's overrun reaches another,
+// and the fallback for a cluster past the event cap.
+#include "kernels/exact_collisions.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+
+#include "kernels/contact_detection.hpp"
+#include "kernels/segment_geometry.hpp"
+
+namespace hardrod {
+
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+// An upper bound on how fast any point of a body moves: |v| + L/2 |w|, with the relative
+// 1e-12 that refresh_motion's growth carries for the rounding.
+double point_speed(const Flight &f, double h) {
+  return (norm(f.v) + h * norm(f.w)) * (1.0 + 1e-12);
+}
+
+// A predicted contact (or, with `resume`, a search that used up its iterations and goes on
+// from t) of the bodies in slots a and b, valid while neither has changed since.
+struct Event {
+  double t = 0.0;
+  std::int64_t id_a = 0, id_b = 0;  // canonical order: id_a < id_b
+  std::uint32_t a = 0, b = 0;
+  std::uint32_t version_a = 0, version_b = 0;
+  bool resume = false;
+};
+// Earliest first; ties by ids, so the order does not depend on the order of insertion.
+struct Later {
+  bool operator()(const Event &x, const Event &y) const {
+    if (x.t != y.t) return x.t > y.t;
+    if (x.id_a != y.id_a) return x.id_a > y.id_a;
+    return x.id_b > y.id_b;
+  }
+};
+
+// What every cluster reads.
+struct Context {
+  const Particles &p;
+  const Box &box;
+  Vec3 inverse;
+  const Shape &shape;
+  const NeighborList &list;
+  const std::vector<std::uint32_t> &group_of;  // by body: its cluster, kNone if none
+  double dt;
+  const ExactSettings &settings;
+};
+
+// One cluster's event-driven pass from the step's start to its end. One per thread, reused
+// from cluster to cluster so that a cluster allocates nothing.
+class ClusterPass {
+ public:
+  explicit ClusterPass(const Context &cx) : cx_(cx) {}
+
+  // Cluster `group` of `count` bodies (ascending) and its candidates; its flown bodies are
+  // appended to `flown`.
+  ExactStats run(std::uint32_t group, const std::uint32_t *bodies, std::size_t count,
+                 const Contact *const *candidates, std::size_t ncandidates,
+                 std::vector<FlownBody> &flown) {
+    group_ = group;
+    bodies_ = bodies;
+    count_ = count;
+    stats_ = {};
+    queue_.clear();
+    flight_.resize(count);
+    moved_.assign(count, 0.0);
+    version_.assign(count, 0);
+    for (std::size_t s = 0; s < count; ++s) {
+      const std::uint32_t b = bodies[s];
+      flight_[s] = {cx_.p.position(b), cx_.p.axis(b), cx_.p.velocity(b), cx_.p.angular_velocity(b),
+                    0.0};
+    }
+    for (std::size_t k = 0; k < ncandidates; ++k)
+      predict(slot(candidates[k]->i), slot(candidates[k]->j), 0.0, false);
+    const long long cap = cx_.settings.events_per_body * static_cast<long long>(count);
+    bool fell_back = false;
+    while (!queue_.empty()) {
+      std::pop_heap(queue_.begin(), queue_.end(), Later());
+      const Event ev = queue_.back();
+      queue_.pop_back();
+      if (ev.version_a != version_[ev.a] || ev.version_b != version_[ev.b]) continue;
+      if (++stats_.events > cap * (fell_back ? 2 : 1)) {
+        if (fell_back) break;  // chattering on: the rest of the step in free flight
+        fall_back(ev.t);
+        fell_back = true;
+        continue;
+      }
+      if (ev.resume)
+        predict(ev.a, ev.b, ev.t, false);
+      else
+        collide(ev.a, ev.b, ev.t);
+    }
+    land(flown);
+    return stats_;
+  }
+
+ private:
+  std::uint32_t slot(std::uint32_t body) const {
+    return static_cast<std::uint32_t>(std::lower_bound(bodies_, bodies_ + count_, body) - bodies_);
+  }
+
+  // Slot b's flight moved to the periodic image of b nearest a at the step's start (the image
+  // does not change within a step: the list's pairs are far shorter than half the box).
+  Flight image_of(std::uint32_t a, std::uint32_t b) const {
+    const Vec3 raw = cx_.p.position(bodies_[b]) - cx_.p.position(bodies_[a]);
+    Flight f = flight_[b];
+    f.x = f.x + (cx_.box.minimum_image(raw, cx_.inverse) - raw);
+    return f;
+  }
+
+  // The first contact of slots a and b from t on, queued if there is one in the step.
+  void predict(std::uint32_t a, std::uint32_t b, double t, bool again) {
+    if (cx_.p.id[bodies_[a]] > cx_.p.id[bodies_[b]]) std::swap(a, b);
+    const ContactTime ct = first_contact(flight_[a], image_of(a, b), cx_.shape.half_length(),
+                                         cx_.shape.diameter, t, cx_.dt, cx_.settings.contact);
+    ++stats_.searches;
+    stats_.repredictions += again;
+    stats_.root_iterations += ct.iterations;
+    if (!ct.found && ct.converged) return;
+    stats_.unconverged += !ct.converged;
+    queue_.push_back({ct.t, cx_.p.id[bodies_[a]], cx_.p.id[bodies_[b]], a, b, version_[a],
+                      version_[b], !ct.found});
+    std::push_heap(queue_.begin(), queue_.end(), Later());
+  }
+
+  // Slot s flown on to time t (its flight then starts there).
+  void fly_to(std::uint32_t s, double t) {
+    Flight &f = flight_[s];
+    moved_[s] += point_speed(f, cx_.shape.half_length()) * (t - f.t0);
+    f.x = f.position(t);
+    f.e = f.axis(t);
+    f.t0 = t;
+  }
+
+  // The elastic, frictionless impulse of slots a and b touching at t (a has the lower id),
+  // then every listed pair of the two inside the cluster predicted again.
+  void collide(std::uint32_t a, std::uint32_t b, double t) {
+    fly_to(a, t);
+    fly_to(b, t);
+    Flight &fa = flight_[a];
+    Flight &fb = flight_[b];
+    const Vec3 xb = image_of(a, b).x;
+    const Vec3 r = xb - fa.x;
+    const double h = cx_.shape.half_length();
+    const SegmentClosest sc = segment_closest_inline(r, fa.e, h, fb.e, h);
+    const Vec3 n = contact_normal(sc, r, fa.e, fb.e);
+    const Vec3 arm_a = sc.s * cross(fa.e, n), arm_b = sc.t * cross(fb.e, n);
+    const double u = dot(n, fa.v - fb.v) + dot(fa.w, arm_a) - dot(fb.w, arm_b);
+    if (u < 0.0) {
+      const double inv_m = 1.0 / cx_.shape.mass, inv_i = cx_.shape.inverse_inertia();
+      const double k = 2.0 * inv_m + inv_i * (norm2(arm_a) + norm2(arm_b));
+      const double j = -2.0 * u / k;
+      fa.v = fa.v + (j * inv_m) * n;
+      fb.v = fb.v - (j * inv_m) * n;
+      fa.w = fa.w + (j * inv_i) * arm_a;
+      fb.w = fb.w - (j * inv_i) * arm_b;
+      stats_.virial.add(j * dot(n, fa.x - xb));
+      ++stats_.collisions;
+    }
+    ++version_[a];
+    ++version_[b];
+    predict_pairs_of(a, kNone, t);
+    predict_pairs_of(b, a, t);
+  }
+
+  // Every listed pair of slot s with a partner in the cluster (but `skip`), from t.
+  void predict_pairs_of(std::uint32_t s, std::uint32_t skip, double t) {
+    const std::uint32_t body = bodies_[s];
+    const NeighborList &list = cx_.list;
+    for (std::uint32_t q = list.pairs_start[body]; q < list.pairs_start[body + 1]; ++q) {
+      const ListedPair &pair = list.pairs[list.pair_index[q]];
+      const std::uint32_t other = pair.first == body ? pair.second : pair.first;
+      if (cx_.group_of[other] != group_) continue;
+      const std::uint32_t o = slot(other);
+      if (o != skip) predict(s, o, t, true);
+    }
+  }
+
+  // Past the event cap at t: the cluster's touching pairs solved together there, once.
+  void fall_back(double t) {
+    ++stats_.fallbacks;
+    Particles scratch;
+    scratch.resize(count_);
+    for (std::uint32_t s = 0; s < count_; ++s) {
+      fly_to(s, t);
+      scratch.id[s] = cx_.p.id[bodies_[s]];
+      scratch.set_position(s, flight_[s].x);
+      scratch.set_axis(s, flight_[s].e);
+      scratch.set_velocity(s, flight_[s].v);
+      scratch.set_angular_velocity(s, flight_[s].w);
+    }
+    // Touching: closer than twice the search's tolerance (and the rounding of the flights).
+    const double reach = 2.0 * cx_.settings.contact.tolerance + 1e-12;
+    std::vector<Contact> touching;
+    for (std::uint32_t a = 0; a < count_; ++a) {
+      const std::uint32_t body = bodies_[a];
+      for (std::uint32_t q = cx_.list.pairs_start[body]; q < cx_.list.pairs_start[body + 1]; ++q) {
+        const ListedPair &pair = cx_.list.pairs[cx_.list.pair_index[q]];
+        const std::uint32_t other = pair.first == body ? pair.second : pair.first;
+        if (cx_.group_of[other] != group_ || other < body) continue;
+        Contact c;
+        double d = 0.0;
+        if (make_contact(scratch, cx_.box, cx_.inverse, cx_.shape, a, slot(other), c, d, reach))
+          touching.push_back(c);
+      }
+    }
+    std::sort(touching.begin(), touching.end(), canonical_less);
+    resolve_contacts(scratch, cx_.shape, touching, cx_.settings.solver);
+    const CollisionTally tally = tally_collisions(touching, {});
+    stats_.virial += tally.virial;
+    stats_.collisions += tally.collisions;
+    queue_.clear();
+    for (std::uint32_t s = 0; s < count_; ++s) {
+      flight_[s].v = scratch.velocity(s);
+      flight_[s].w = scratch.angular_velocity(s);
+      ++version_[s];
+    }
+    for (std::uint32_t s = 0; s < count_; ++s) predict_pairs_of(s, kNone, t);
+  }
+
+  // The bodies whose velocity changed, flown to the step's end.
+  void land(std::vector<FlownBody> &flown) {
+    for (std::uint32_t s = 0; s < count_; ++s) {
+      if (version_[s] == 0) continue;  // in free flight all step: fly_step moves it
+      fly_to(s, cx_.dt);
+      const std::uint32_t b = bodies_[s];
+      const Flight &f = flight_[s];
+      flown.push_back({b, f.x, f.e, f.v, f.w, std::max(0.0, moved_[s] - 2.0 * cx_.p.grow[b])});
+    }
+  }
+
+  const Context &cx_;
+  std::uint32_t group_ = 0;
+  const std::uint32_t *bodies_ = nullptr;  // ascending local indices
+  std::size_t count_ = 0;
+  std::vector<Flight> flight_;
+  std::vector<double> moved_;  // bound on how far any point moved so far in the step
+  std::vector<std::uint32_t> version_;
+  std::vector<Event> queue_;  // a heap, earliest on top
+  ExactStats stats_;
+};
+
+std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
+  while (parent[a] != a) a = parent[a] = parent[parent[a]];
+  return a;
+}
+// The smaller body index is the root: the partition does not depend on the order of joins.
+void join(std::vector<std::uint32_t> &parent, std::uint32_t a, std::uint32_t b) {
+  a = root(parent, a);
+  b = root(parent, b);
+  if (a != b) parent[std::max(a, b)] = std::min(a, b);
+}
+
+// The clusters, flat: cluster g's bodies (ascending) are bodies[body_start[g] ..
+// body_start[g + 1]), its candidates cands[cand_start[g] .. cand_start[g + 1]). A cluster
+// solved again after a join is appended and the old ones marked dead.
+struct Partition {
+  std::vector<std::uint32_t> bodies;
+  std::vector<std::size_t> body_start{0};
+  std::vector<const Contact *> cands;
+  std::vector<std::size_t> cand_start{0};
+  std::vector<char> alive;
+  std::vector<ExactStats> stats;
+  std::vector<std::vector<FlownBody>> flown;
+
+  std::size_t count() const { return alive.size(); }
+  // Appends the clusters of `members` (sorted by (root, body)) with their candidates.
+  void add(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &members,
+           const std::vector<std::pair<std::uint32_t, const Contact *>> &candidates,
+           std::vector<std::uint32_t> &group_of) {
+    std::size_t c = 0;
+    for (std::size_t k = 0; k < members.size();) {
+      const std::uint32_t r = members[k].first;
+      const auto g = static_cast<std::uint32_t>(alive.size());
+      for (; k < members.size() && members[k].first == r; ++k) {
+        bodies.push_back(members[k].second);
+        group_of[members[k].second] = g;
+      }
+      body_start.push_back(bodies.size());
+      while (c < candidates.size() && candidates[c].first < r) ++c;
+      for (; c < candidates.size() && candidates[c].first == r; ++c)
+        cands.push_back(candidates[c].second);
+      cand_start.push_back(cands.size());
+      alive.push_back(1);
+    }
+    stats.resize(alive.size());
+    flown.resize(alive.size());
+  }
+};
+
+// Solves clusters [from, partition.count()), threads taking whole clusters.
+void solve(const Context &cx, Partition &pt, std::size_t from) {
+  const auto n = static_cast<long>(pt.count() - from);
+#pragma omp parallel if (n > 1)
+  {
+    ClusterPass pass(cx);
+#pragma omp for schedule(dynamic, 4)
+    for (long k = 0; k < n; ++k) {
+      const std::size_t g = from + static_cast<std::size_t>(k);
+      pt.flown[g].clear();
+      pt.stats[g] =
+          pass.run(static_cast<std::uint32_t>(g), pt.bodies.data() + pt.body_start[g],
+                   pt.body_start[g + 1] - pt.body_start[g], pt.cands.data() + pt.cand_start[g],
+                   pt.cand_start[g + 1] - pt.cand_start[g], pt.flown[g]);
+    }
+  }
+}
+
+// How far body b may have moved in the step: its free flight's bound, and its overrun.
+double step_reach(const Particles &p, const std::vector<double> &overrun, std::uint32_t b) {
+  return 2.0 * p.grow[b] + overrun[b];
+}
+
+// Listed pairs from a flown body with overrun to a body of another cluster (or of none) that
+// could have touched in the step: first the slack with the real bounds, then the distance
+// at the start against the two bodies' reaches. Such a pair's clusters are solved together.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> reaches(const Context &cx, const Partition &pt,
+                                                             const std::vector<double> &overrun) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
+  const Particles &p = cx.p;
+  const NeighborList &list = cx.list;
+  const double h = cx.shape.half_length();
+  for (std::size_t g = 0; g < pt.count(); ++g) {
+    if (!pt.alive[g]) continue;
+    for (const FlownBody &f : pt.flown[g]) {
+      if (f.overrun <= 0.0) continue;
+      for (std::uint32_t q = list.pairs_start[f.body]; q < list.pairs_start[f.body + 1]; ++q) {
+        const ListedPair &pair = list.pairs[list.pair_index[q]];
+        const std::uint32_t other = pair.first == f.body ? pair.second : pair.first;
+        if (cx.group_of[other] == g) continue;
+        const double moved = p.motion_bound[pair.first] + overrun[pair.first] +
+                             p.motion_bound[pair.second] + overrun[pair.second];
+        if (moved < pair.recheck_at) continue;
+        const Vec3 r = cx.box.minimum_image(p.position(other) - p.position(f.body), cx.inverse);
+        const SegmentClosest sc = segment_closest_inline(r, p.axis(f.body), h, p.axis(other), h);
+        const double gap = std::sqrt(sc.dist2) - cx.shape.diameter;
+        if (gap - kDistanceSafetyMargin <
+            step_reach(p, overrun, f.body) + step_reach(p, overrun, other))
+          out.emplace_back(f.body, other);
+      }
+    }
+  }
+  return out;
+}
+
+// Joins the clusters the pairs reach across, and appends the joined clusters (dead ones
+// marked) for solving; bodies of no cluster come in.
+void regroup(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &joins,
+             const std::vector<Contact> &candidates, ExactScratch &scratch, Partition &pt) {
+  std::vector<std::uint32_t> touched;  // bodies whose cluster is joined
+  const auto take = [&](std::uint32_t b) {
+    if (scratch.parent[b] == kNone) {
+      scratch.parent[b] = b;
+      touched.push_back(b);
+      return;
+    }
+    const std::uint32_t g = scratch.label[b];
+    if (g == kNone || !pt.alive[g]) return;  // came in or was taken already
+    pt.alive[g] = 0;
+    touched.insert(touched.end(), pt.bodies.begin() + static_cast<long>(pt.body_start[g]),
+                   pt.bodies.begin() + static_cast<long>(pt.body_start[g + 1]));
+  };
+  for (const auto &[a, b] : joins) {
+    take(a);
+    take(b);
+    join(scratch.parent, a, b);
+  }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> members;
+  for (const std::uint32_t b : touched) members.emplace_back(root(scratch.parent, b), b);
+  std::sort(members.begin(), members.end());
+  std::vector<std::pair<std::uint32_t, const Contact *>> cands;
+  for (const Contact &c : candidates)
+    if (std::binary_search(members.begin(), members.end(),
+                           std::make_pair(root(scratch.parent, c.i), c.i)))
+      cands.emplace_back(root(scratch.parent, c.i), &c);
+  std::stable_sort(cands.begin(), cands.end(),
+                   [](const auto &x, const auto &y) { return x.first < y.first; });
+  pt.add(members, cands, scratch.label);
+}
+
+void add_counts(ExactStats &to, const ExactStats &from) {
+  to.collisions += from.collisions;
+  to.events += from.events;
+  to.searches += from.searches;
+  to.repredictions += from.repredictions;
+  to.root_iterations += from.root_iterations;
+  to.unconverged += from.unconverged;
+  to.fallbacks += from.fallbacks;
+  to.virial += from.virial;
+}
+
+}  // namespace
+
+ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
+                           const NeighborList &list, const std::vector<Contact> &candidates,
+                           double dt, const ExactSettings &settings, ExactScratch &scratch,
+                           std::vector<FlownBody> &flown) {
+  ExactStats stats;
+  flown.clear();
+  stats.candidates = static_cast<long long>(candidates.size());
+  if (candidates.empty()) return stats;
+  const std::size_t n = list.active;
+  scratch.parent.resize(n, kNone);
+  scratch.label.resize(n, kNone);
+  scratch.overrun.resize(n, 0.0);
+  std::vector<std::uint32_t> involved;
+  for (const Contact &c : candidates)
+    for (const std::uint32_t b : {c.i, c.j})
+      if (scratch.parent[b] == kNone) {
+        scratch.parent[b] = b;
+        involved.push_back(b);
+      }
+  for (const Contact &c : candidates) join(scratch.parent, c.i, c.j);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> members;
+  for (const std::uint32_t b : involved) members.emplace_back(root(scratch.parent, b), b);
+  std::sort(members.begin(), members.end());
+  std::vector<std::pair<std::uint32_t, const Contact *>> cands;
+  for (const Contact &c : candidates) cands.emplace_back(root(scratch.parent, c.i), &c);
+  std::stable_sort(cands.begin(), cands.end(),
+                   [](const auto &x, const auto &y) { return x.first < y.first; });
+  Partition pt;
+  pt.add(members, cands, scratch.label);
+
+  const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
+  for (std::size_t from = 0;;) {
+    solve(cx, pt, from);
+    for (std::size_t g = from; g < pt.count(); ++g) add_counts(stats, pt.stats[g]);
+    for (std::size_t g = 0; g < pt.count(); ++g)
+      if (pt.alive[g])
+        for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = f.overrun;
+    const auto joins = reaches(cx, pt, scratch.overrun);
+    for (std::size_t g = 0; g < pt.count(); ++g)
+      for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = 0.0;
+    if (joins.empty()) break;
+    stats.regrown += static_cast<long long>(joins.size());
+    from = pt.count();
+    regroup(joins, candidates, scratch, pt);
+  }
+  // The final partition's physics; the counts of work include the passes joins discarded.
+  stats.collisions = 0;
+  stats.virial = ExactSum();
+  for (std::size_t g = 0; g < pt.count(); ++g) {
+    if (!pt.alive[g]) continue;
+    ++stats.clusters;
+    stats.collisions += pt.stats[g].collisions;
+    stats.virial += pt.stats[g].virial;
+    stats.largest_cluster = std::max(
+        stats.largest_cluster, static_cast<long long>(pt.body_start[g + 1] - pt.body_start[g]));
+    flown.insert(flown.end(), pt.flown[g].begin(), pt.flown[g].end());
+  }
+  for (const std::uint32_t b : pt.bodies) scratch.parent[b] = scratch.label[b] = kNone;
+  return stats;
+}
+
+void land_flown(Particles &p, const std::vector<FlownBody> &flown) {
+  for (const FlownBody &f : flown) {
+    p.set_position(f.body, f.x);
+    p.set_axis(f.body, f.e);
+    p.set_velocity(f.body, f.v);
+    p.set_angular_velocity(f.body, f.w);
+    p.motion_bound[f.body] += f.overrun;
+  }
+}
+
+}  // namespace hardrod

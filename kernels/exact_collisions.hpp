@@ -1,0 +1,93 @@
+// The exact method's collisions within one time step (run.method = "exact", docs/physics.md
+// section 3): every collision at its exact time on the bodies' free-flight trajectories, in
+// time order within each cluster of bodies that can interact in the step, with the elastic,
+// frictionless impulse at the touching configuration.
+//
+// Inputs: the bodies at the step's start, their motion bounds already grown by the step's free
+// flight (grow_bounds, free_flight.hpp); the pair list, its slacks renewed for the start by the
+// detection with `ahead` (contact_detection.hpp); and the candidates that detection found: the
+// listed pairs whose gap is below the two bodies' flights in the step.
+//
+// Clusters: the candidates joined by shared bodies. Within a cluster an event-driven pass runs
+// from t = 0 to dt: each candidate gets its first contact time (first_contact,
+// contact_time.hpp); the earliest event is taken (ties by ids), the two bodies get the impulse
+// and every listed pair of either body inside the cluster is predicted again from then. A body
+// whose new velocity carries it further than its free flight would have (its "overrun") may
+// reach a body outside its cluster: each such listed pair is checked against its slack with
+// the bodies' real bounds, and where it could touch the two clusters are joined and solved
+// again from the step's start, until no cluster can reach another. Every cluster's result
+// depends only on its bodies, so the trajectory does not depend on the thread count or on the
+// order clusters are processed in.
+//
+// A cluster that takes more than events_per_body events per body in one step (an inelastic
+// collapse cannot happen with elastic impulses, but a jammed cluster can chatter) has its
+// touching pairs solved together by the simultaneous solver (contact_resolution.hpp) at that
+// time, once; this is counted (ExactStats::fallbacks).
+//
+// Reads the bodies (their state at the step's start is never written here); writes the
+// `flown` list: the end states of the bodies whose velocity changed, which land_flown writes
+// over the free flight's (fly_step). Threads take whole clusters.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "kernels/box.hpp"
+#include "kernels/contact.hpp"
+#include "kernels/contact_resolution.hpp"
+#include "kernels/contact_time.hpp"
+#include "kernels/exact_sum.hpp"
+#include "kernels/neighbor_list.hpp"
+#include "kernels/particles.hpp"
+#include "kernels/shape.hpp"
+
+namespace hardrod {
+
+struct ExactSettings {
+  ContactTimeSettings contact;  // the root search's tolerance (1e-10 D) and iteration cap
+  long events_per_body = 100;   // events a cluster may take per body in one step
+  SolverSettings solver;        // the fallback's simultaneous solver
+};
+
+// One step's counts (the clusters of the final partition; searches and iterations of every
+// pass, including the passes a regrown cluster discarded).
+struct ExactStats {
+  long long candidates = 0;       // listed pairs that could touch in the step
+  long long clusters = 0;         // clusters of candidates
+  long long largest_cluster = 0;  // bodies in the largest
+  long long collisions = 0;       // impulses given
+  long long events = 0;           // events taken from the clusters' queues
+  long long searches = 0;         // first-contact searches
+  long long repredictions = 0;    // of those, after a velocity changed within the step
+  long long root_iterations = 0;  // gap evaluations of the searches
+  long long unconverged = 0;      // searches that used up their iterations (resumed later)
+  long long regrown = 0;          // joins of clusters that a body's overrun could reach
+  long long fallbacks = 0;        // clusters past the event cap (simultaneous solver)
+  ExactSum virial;                // sum of J n . (x_i - x_j) at the touching configuration
+};
+
+// A body whose velocity changed in the step: its state at the step's end, and how much further
+// it may have moved than its free flight's bound (grow_bounds) allowed.
+struct FlownBody {
+  std::uint32_t body = 0;
+  Vec3 x, e, v, w;
+  double overrun = 0.0;
+};
+
+// Scratch kept between steps (per-body arrays over the list's bodies).
+struct ExactScratch {
+  std::vector<std::uint32_t> parent;  // union-find over bodies; UINT32_MAX: not involved
+  std::vector<std::uint32_t> label;   // the cluster (root body) of an involved body
+  std::vector<double> overrun;        // of a flown body, else 0
+};
+
+ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
+                           const NeighborList &list, const std::vector<Contact> &candidates,
+                           double dt, const ExactSettings &settings, ExactScratch &scratch,
+                           std::vector<FlownBody> &flown);
+
+// The flown bodies' end states written over their free flight's, and their motion bounds
+// grown by their overrun (the caller refreshes their motion constants).
+void land_flown(Particles &p, const std::vector<FlownBody> &flown);
+
+}  // namespace hardrod

@@ -1,0 +1,133 @@
+// The exact method's time step (run.method = "exact", docs/physics.md section 3): the phases of
+// simulation.hpp with the collisions at their exact times inside the step instead of at its
+// midpoint. The bodies stay at the step's start until the collisions are known:
+//   1. the motion bounds grow by the step's free flight (grow_bounds), before anything moves
+//   3. agree: the list expires when those bounds reach the skin (then 4. rebuild)
+//   2. detect: the listed pairs that could touch within the step (detect_contacts, `ahead`)
+//   5. collide: each cluster of them event by event (kernels/exact_collisions.hpp)
+//   6. flight: every body by dt (fly_step), the bodies whose velocity changed to their own end
+//      states (land_flown)
+//   7, 8 as for the midpoint method.
+// One rank for now: a cluster across ranks needs the records protocol (runtime/
+// cluster_protocol.hpp) for event lists, which is not built yet.
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "kernels/rotor_constraints.hpp"
+#include "runtime/simulation.hpp"
+
+namespace hardrod {
+
+void Simulation::advance_exact(long long count) {
+  {
+    ScopedRegion r(timers_, Region::kIntegrate);
+    refresh_motion(particles_, advanced(), scene_.shape, 0.5 * scene_.dt);
+  }
+  for (long long k = 0; k < count; ++k) {
+    exact_step();
+    ++step_;
+    if (step_ % kConstraintInterval == 0) restore_constraints();                    // 7.
+    if (scene_.thermostat_interval > 0 && step_ % scene_.thermostat_interval == 0)  // 7.
+      apply_thermostat();
+    if (stop_agreed_) return;
+  }
+}
+
+// One step; positions at its start until 6.
+void Simulation::exact_step() {
+  double largest = exact_bounds();           // 1.
+  Agreement agreed = agree(largest, false);  // 3.
+  if (force_rebuild_) {
+    agreed.rebuild = true;
+    force_rebuild_ = false;
+  }
+  if (agreed.rebuild) {  // 4.
+    rebuild();
+    largest = exact_bounds();
+    if (neighbor_list_expired(list_, largest, particles_.size()))
+      fail(
+          fmt::format("step {}: at run.dt = {:g} a body's flight in one step ({:.4g} D) is more "
+                      "than half the neighbour-list skin (run.skin = {:g}); use a smaller "
+                      "run.dt or a larger run.skin",
+                      step_ + 1, scene_.dt, largest, scene_.skin));
+  }
+  ExactStats stats;
+  const DetectionStats detected = exact_collisions(stats);  // 2., 5.
+  exact_flight();                                           // 6.
+  tally_exact(detected, stats);
+}
+
+double Simulation::exact_bounds() {
+  ScopedRegion r(timers_, Region::kIntegrate);
+  return grow_bounds(particles_, advanced());
+}
+
+// Phases 2 and 5. A body whose velocity changed may outrun the flight its bound was grown by;
+// if that carries it past the list's skin, a pair the list does not hold could have touched:
+// the step is solved again on a list built now (the bodies have not moved yet).
+DetectionStats Simulation::exact_collisions(ExactStats &stats) {
+  for (int attempt = 0;; ++attempt) {
+    DetectionStats detected;
+    {
+      ScopedRegion r(timers_, Region::kDetect);
+      detected = detect_contacts(particles_, scene_.box, scene_.shape, list_, contacts_,
+                                 particles_.grow.data());
+      note_detection(detected);
+    }
+    {
+      ScopedRegion r(timers_, Region::kResolve);
+      stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, contacts_, scene_.dt,
+                              exact_settings_, exact_scratch_, flown_);
+    }
+    double reach = 0.0;
+    for (const FlownBody &f : flown_)
+      reach = std::max(reach, particles_.motion_bound[f.body] + f.overrun);
+    if (!neighbor_list_expired(list_, reach, particles_.size())) return detected;
+    if (attempt > 0)
+      fail(
+          fmt::format("step {}: at run.dt = {:g} a body's flight after a collision ({:.4g} D) "
+                      "is more than half the neighbour-list skin (run.skin = {:g}); use a "
+                      "smaller run.dt or a larger run.skin",
+                      step_ + 1, scene_.dt, reach, scene_.skin));
+    ++exact_.rebuilt_in_step;
+    rebuild();
+    exact_bounds();
+  }
+}
+
+// Phase 6: every body flies the whole step; those whose velocity changed land on the end
+// states of their own flights, and their motion constants follow their new velocities.
+void Simulation::exact_flight() {
+  ScopedRegion r(timers_, Region::kIntegrate);
+  fly_step(particles_, advanced(), scene_.shape, 0.5 * scene_.dt);
+  land_flown(particles_, flown_);
+  changed_.clear();
+  for (const FlownBody &f : flown_) changed_.push_back(f.body);
+  refresh_motion(particles_, changed_, scene_.shape, 0.5 * scene_.dt);
+}
+
+void Simulation::tally_exact(const DetectionStats &detected, const ExactStats &stats) {
+  interval_.steps += 1;
+  interval_.collisions += stats.collisions;
+  interval_.virial += stats.virial;
+  interval_.narrow_phase_tests += detected.narrow_phase_tests;
+  interval_.contacts += stats.candidates;
+  interval_.clusters += stats.clusters;
+  interval_.max_depth = std::max(interval_.max_depth, detected.max_depth);
+  ExactStats &t = exact_.totals;
+  ++exact_.steps;
+  t.candidates += stats.candidates;
+  t.clusters += stats.clusters;
+  t.largest_cluster = std::max(t.largest_cluster, stats.largest_cluster);
+  t.collisions += stats.collisions;
+  t.events += stats.events;
+  t.searches += stats.searches;
+  t.repredictions += stats.repredictions;
+  t.root_iterations += stats.root_iterations;
+  t.unconverged += stats.unconverged;
+  t.regrown += stats.regrown;
+  t.fallbacks += stats.fallbacks;
+}
+
+}  // namespace hardrod

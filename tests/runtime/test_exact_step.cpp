@@ -1,0 +1,75 @@
+// The exact method's whole steps (run.method = "exact", runtime/exact_step.cpp): no pair ever
+// overlaps (checked against every pair, not the list), energy is conserved to round-off, and
+// the trajectory is the same bits for any thread count.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+
+#include "kernels/segment_geometry.hpp"
+#include "runtime/simulation.hpp"
+#include "tests/test_scenes.hpp"
+
+namespace hardrod {
+namespace {
+
+Scene exact(Scene s) {
+  s.method = kExact;
+  return s;
+}
+
+// The smallest surface gap over all pairs (brute force, minimum image).
+double smallest_gap(const Simulation &sim) {
+  const Particles &p = sim.particles();
+  const Box &box = sim.scene().box;
+  const Vec3 inverse = box.inverse_length();
+  const double h = sim.scene().shape.half_length();
+  double smallest = 1e300;
+  for (std::size_t i = 0; i < sim.owned_count(); ++i)
+    for (std::size_t j = i + 1; j < sim.owned_count(); ++j) {
+      const Vec3 r = box.minimum_image(p.position(j) - p.position(i), inverse);
+      if (norm2(r) > (2 * h + 2) * (2 * h + 2)) continue;
+      const SegmentClosest c = segment_closest(r, p.axis(i), h, p.axis(j), h);
+      smallest = std::min(smallest, std::sqrt(c.dist2) - sim.scene().shape.diameter);
+    }
+  return smallest;
+}
+
+TEST(ExactStep, NoPairEverOverlapsAndEnergyIsConserved) {
+  for (const Scene &scene :
+       {exact(testing::small_nematic(2e-3)), exact(testing::hard_spheres(8, 0.45, 2e-3))}) {
+    omp_set_num_threads(1);
+    Simulation sim(scene);
+    const double e0 = sim.kinetic_energy();
+    double worst = 1e300;
+    for (int k = 0; k < 250; ++k) {
+      sim.step();
+      worst = std::min(worst, smallest_gap(sim));
+    }
+    const IntervalTotals t = sim.take_interval();
+    EXPECT_GT(t.collisions, 100) << scene.shape_name;
+    EXPECT_GT(worst, -1e-9) << scene.shape_name;
+    EXPECT_NEAR(sim.kinetic_energy() / e0, 1.0, 1e-11) << scene.shape_name;
+    EXPECT_EQ(sim.exact_record().totals.fallbacks, 0) << scene.shape_name;
+  }
+}
+
+TEST(ExactStep, SameStateForAnyThreadCount) {
+  for (const Scene &scene :
+       {exact(testing::small_nematic(2e-3)), exact(testing::hard_spheres(8, 0.45, 2e-3))}) {
+    std::string reference;
+    for (int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      Simulation sim(scene);
+      sim.advance(300);
+      if (reference.empty())
+        reference = sim.state_checksum();
+      else
+        EXPECT_EQ(sim.state_checksum(), reference) << threads << " threads, " << scene.shape_name;
+    }
+  }
+  omp_set_num_threads(1);
+}
+
+}  // namespace
+}  // namespace hardrod
