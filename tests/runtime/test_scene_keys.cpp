@@ -59,8 +59,8 @@ using testing::problems_of;
 TEST(SceneKeys, KeyTableDrivesReferenceOverridesAndWriter) {
   const std::string reference = scene_keys_reference();
   const auto keys = scene_keys();
-  EXPECT_EQ(keys.size(), 29u);
-  EXPECT_EQ(std::count(reference.begin(), reference.end(), '\n'), 29) << reference;
+  EXPECT_EQ(keys.size(), 30u);
+  EXPECT_EQ(std::count(reference.begin(), reference.end(), '\n'), 30) << reference;
   for (const auto &spec : keys) {
     const std::string key = std::string(spec.section) + "." + std::string(spec.name);
     EXPECT_FALSE(spec.help.empty()) << key;
@@ -177,6 +177,18 @@ TEST(SceneKeys, TemperatureHasLimits) {
     EXPECT_EQ(problems[0].rfind("init.temperature = ", 0), 0u) << lines(problems);
     EXPECT_TRUE(contains(problems, ": must be in (1e-06, 1e+06)")) << lines(problems);
   }
+}
+
+// run.method names how collisions are timed; anything else is refused with the choices.
+TEST(SceneKeys, MethodIsMidpointOrExact) {
+  EXPECT_EQ(parse_scene(kScene).method, kMidpoint);
+  EXPECT_EQ(parse_scene(kScene, {"run.method=exact"}).method, kExact);
+  EXPECT_NE(scene_to_toml(parse_scene(kScene, {"run.method=exact"})).find("method = \"exact\""),
+            std::string::npos);
+  const auto problems = problems_of(kScene, {"run.method=leapfrog"});
+  ASSERT_EQ(problems.size(), 1u) << lines(problems);
+  EXPECT_EQ(problems[0], "run.method = \"leapfrog\": must be \"midpoint\" or \"exact\"")
+      << lines(problems);
 }
 
 }  // namespace
