@@ -273,6 +273,40 @@ struct Partition {
   std::vector<std::vector<FlownBody>> flown;
 
   std::size_t count() const { return alive.size(); }
+
+  // The clusters of the joined candidates, in one pass over the bodies (a root is its set's
+  // smallest index, so it comes before its set's other bodies) and one over the candidates.
+  void first(std::vector<std::uint32_t> &parent, const std::vector<Contact> &candidates,
+             std::vector<std::uint32_t> &group_of) {
+    std::vector<std::size_t> size;
+    for (std::uint32_t b = 0; b < parent.size(); ++b) {
+      if (parent[b] == kNone) continue;
+      const std::uint32_t r = root(parent, b);
+      if (r == b) {
+        group_of[b] = static_cast<std::uint32_t>(size.size());
+        size.push_back(0);
+      } else {
+        group_of[b] = group_of[r];
+      }
+      ++size[group_of[b]];
+    }
+    const std::size_t groups = size.size();
+    body_start.assign(groups + 1, 0);
+    for (std::size_t g = 0; g < groups; ++g) body_start[g + 1] = body_start[g] + size[g];
+    bodies.resize(body_start[groups]);
+    std::vector<std::size_t> at(body_start.begin(), body_start.end() - 1);
+    for (std::uint32_t b = 0; b < parent.size(); ++b)
+      if (parent[b] != kNone) bodies[at[group_of[b]]++] = b;
+    cand_start.assign(groups + 1, 0);
+    for (const Contact &c : candidates) ++cand_start[group_of[c.i] + 1];
+    for (std::size_t g = 0; g < groups; ++g) cand_start[g + 1] += cand_start[g];
+    cands.resize(candidates.size());
+    at.assign(cand_start.begin(), cand_start.end() - 1);
+    for (const Contact &c : candidates) cands[at[group_of[c.i]]++] = &c;
+    alive.assign(groups, 1);
+    stats.assign(groups, {});
+    flown.resize(groups);
+  }
   // Appends the clusters of `members` (sorted by (root, body)) with their candidates.
   void add(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &members,
            const std::vector<std::pair<std::uint32_t, const Contact *>> &candidates,
@@ -412,23 +446,12 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
   scratch.parent.resize(n, kNone);
   scratch.label.resize(n, kNone);
   scratch.overrun.resize(n, 0.0);
-  std::vector<std::uint32_t> involved;
   for (const Contact &c : candidates)
     for (const std::uint32_t b : {c.i, c.j})
-      if (scratch.parent[b] == kNone) {
-        scratch.parent[b] = b;
-        involved.push_back(b);
-      }
+      if (scratch.parent[b] == kNone) scratch.parent[b] = b;
   for (const Contact &c : candidates) join(scratch.parent, c.i, c.j);
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> members;
-  for (const std::uint32_t b : involved) members.emplace_back(root(scratch.parent, b), b);
-  std::sort(members.begin(), members.end());
-  std::vector<std::pair<std::uint32_t, const Contact *>> cands;
-  for (const Contact &c : candidates) cands.emplace_back(root(scratch.parent, c.i), &c);
-  std::stable_sort(cands.begin(), cands.end(),
-                   [](const auto &x, const auto &y) { return x.first < y.first; });
   Partition pt;
-  pt.add(members, cands, scratch.label);
+  pt.first(scratch.parent, candidates, scratch.label);
 
   const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
   for (std::size_t from = 0;;) {
