@@ -1,62 +1,364 @@
-// TEMPORARY integration stub (replaced by the contact-time branch): spheres closed form, rods
-// plain conservative advancement with the |v_rel| + h(|w_a| + |w_b|) rate.
+// First contact time of two free-flying capsules (contact_time.hpp).
+// Spheres: the stable root of |r + u s| = D. Rods: conservative advancement. At a time t proven
+// contact-free, the closest points of the axes give the gap g and the unit normal n (from b to
+// a); the separation of the two capsules along this fixed n is a lower bound of their gap at
+// every later time, and its Taylor model L(s) (below) is concave in s >= 0, so its
+// first root is a step the pair cannot touch within. Each step costs one segment distance.
+//
+// The bound, for s >= 0 (a = |w| s the angle turned; A = n.e, B = n.(w^ x e), P = (n.w^)(w^.e)):
+//   n.e(s) = A cos a + B sin a + P (1 - cos a) = A + B a + (P - A)(1 - cos a) - B (a - sin a),
+//   |n.e(s)| <= |A + B a| + |P - A| a^2 / 2 + |B| a^3 / 6,
+//   gap(t + s) >= g + s n.(v_a - v_b) - h sum_bodies (|A + C s| - |A| + K2 s^2 + K3 s^3) = L(s)
+// with C = |w| B = n.(w x e), K2 = |(n.w)(w.e) - |w|^2 A| / 2, K3 = |C| |w|^2 / 6 (no division
+// by |w|). Every term is concave in s >= 0 (-|linear|, -s^2, -s^3), so L is concave there,
+// {L > 0} is one interval [0, s*), a chord between a point with L > 0 and one with L <= 0
+// meets zero before s*, and a tangent (supergradient) at a point beyond s* meets zero after it.
 #include "kernels/contact_time.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hardrod {
+namespace {
+
+// sin(a)/a and (1 - cos a)/a^2 as series in a^2, for a^2 < kSeriesAngle2: the next terms are
+// below a^10 / 4e7 < 3e-18 there, so the result is exact to round-off.
+constexpr double kSeriesAngle2 = 1e-2;
+
+double sinc_series(double a2) {
+  return 1.0 + a2 * (-1.0 / 6 + a2 * (1.0 / 120 + a2 * (-1.0 / 5040 + a2 * (1.0 / 362880))));
+}
+
+double versine_series(double a2) {
+  return 0.5 + a2 * (-1.0 / 24 + a2 * (1.0 / 720 + a2 * (-1.0 / 40320 + a2 * (1.0 / 3628800))));
+}
+
+// Spheres (h = 0): r(s) = r0 + u s with u = v_b - v_a. They meet where |r(s)| = D + tolerance/2:
+// half a tolerance early, so the returned gap is in (0, tolerance] whatever the round-off of
+// the root (a few eps |r0|). |r(s)|^2 is convex in s: once receding, never meeting again.
+ContactTime sphere_contact(const Flight &a, const Flight &b, double D, double t_from, double t_to,
+                           const ContactTimeSettings &settings) {
+  ContactTime out;
+  out.iterations = 1;
+  const Vec3 r0 = b.position(t_from) - a.position(t_from);
+  const Vec3 u = b.v - a.v;
+  const double dist = norm(r0);
+  const double gap = dist - D;
+  const double approach = dot(r0, u);  // < 0: closing
+  if (!std::isfinite(gap) || !std::isfinite(approach) || !std::isfinite(norm2(u))) {
+    out.converged = false;
+    out.t = t_from;
+    return out;
+  }
+  const double tol = settings.tolerance;
+  if (gap <= -tol || (gap <= tol && approach < 0.0)) {  // overlapping, or touching and closing
+    out.found = true;
+    out.t = t_from;
+    return out;
+  }
+  out.t = t_to;
+  if (approach >= 0.0 || gap <= tol) return out;  // receding, or touching and not closing
+  const double target = D + 0.5 * tol;
+  const double c0 = (dist - target) * (dist + target);  // > 0: gap > tol
+  const double disc = approach * approach - norm2(u) * c0;
+  if (disc < 0.0) return out;                           // closest approach farther than the target
+  const double s = c0 / (-approach + std::sqrt(disc));  // the smaller root, without cancellation
+  if (t_from + s <= t_to) {
+    out.found = true;
+    out.t = t_from + s;
+  }
+  return out;
+}
+
+// One rod's part of the bound L(s): h (|A + C s| - |A| + K2 s^2 + K3 s^3).
+struct AxisBound {
+  double A = 0.0, C = 0.0, K2 = 0.0, K3 = 0.0;
+  double loss(double s) const { return std::abs(A + C * s) - std::abs(A) + s * s * (K2 + K3 * s); }
+  // A supergradient of -loss: any slope of a tangent from above of the concave -loss.
+  double loss_slope(double s) const {
+    const double lin = A + C * s;
+    const double sign = lin > 0.0 ? 1.0 : (lin < 0.0 ? -1.0 : 0.0);
+    return sign * C + s * (2.0 * K2 + 3.0 * K3 * s);
+  }
+};
+
+AxisBound axis_bound(const Vec3 &n, const Vec3 &e, const Vec3 &w) {
+  const double w2 = norm2(w);
+  AxisBound b;
+  b.A = dot(n, e);
+  b.C = dot(n, cross(w, e));
+  b.K2 = 0.5 * std::abs(dot(n, w) * dot(w, e) - w2 * b.A);
+  b.K3 = std::abs(b.C) * w2 / 6.0;
+  return b;
+}
+
+// L(s) + margin, the lower bound of gap(t + s) + margin: g0 + closing s - s^2 (q2 + q3 s)
+// - h (loss_a + loss_b), concave in s >= 0 (q2, q3, K2, K3 >= 0).
+struct GapBound {
+  double g0 = 0.0, closing = 0.0, h = 0.0;  // g0 includes the margin
+  double q2 = 0.0, q3 = 0.0;                // the turning direction's remainder (zero if fixed)
+  AxisBound a, b;
+  double value(double s) const {
+    return g0 + s * closing - s * s * (q2 + q3 * s) - h * (a.loss(s) + b.loss(s));
+  }
+  double slope(double s) const {
+    return closing - s * (2.0 * q2 + 3.0 * q3 * s) - h * (a.loss_slope(s) + b.loss_slope(s));
+  }
+};
+
+// The same separation along a direction that turns, n(s) = n rotated by omega s: still a
+// lower bound of the gap at every s, and with omega chosen so that n(s) stays square to each
+// axis whose closest point is interior (omega . (e x n) = w . (e x n)), its slope at s = 0 is
+// the gap's true rate. (With n fixed, a rod's turning brings its far end towards the other
+// body's plane at h |w|, however far aside that end is: the bound's slope is then several
+// times the true rate and the advancement only linear.) Remainders, with d'' bounds:
+//   n(s).e(s) = A + s n.((w - omega) x e) + R,   |R| <= (|omega| + |w|)^2 s^2 / 2,
+//   n(s).(dx + s dv) = n.dx + s (n.dv + (omega x n).dx) + R_x,
+//   |R_x| <= s^2 (|omega|^2 |dx| + 2 |omega| |dv|) / 2 + s^3 |omega|^2 |dv| / 6
+// (dx = x_a - x_b, dv = v_a - v_b).
+GapBound turning_bound(const Vec3 &n, const Vec3 &omega, const Vec3 &dx, const Vec3 &dv,
+                       const Vec3 &ea, const Vec3 &wa, const Vec3 &eb, const Vec3 &wb, double h,
+                       double g0) {
+  const double om = norm(omega), om2 = om * om, ndv = norm(dv);
+  GapBound out;
+  out.g0 = g0;
+  out.h = h;
+  out.closing = dot(n, dv) + dot(cross(omega, n), dx);
+  out.q2 = 0.5 * (om2 * norm(dx) + 2.0 * om * ndv);
+  out.q3 = om2 * ndv / 6.0;
+  auto axis = [&](const Vec3 &e, const Vec3 &w) {
+    AxisBound b;
+    b.A = dot(n, e);
+    b.C = dot(n, cross(w - omega, e));
+    const double r = om + norm(w);
+    b.K2 = 0.5 * r * r;
+    return b;
+  };
+  out.a = axis(ea, wa);
+  out.b = axis(eb, wb);
+  return out;
+}
+
+// The least-norm omega with omega . m_k = w_k . m_k (m_k = e_k x n) for the interior bodies;
+// both: a 2x2 Gram system, solved only while the axes are clearly apart in angle (else omega
+// would grow as 1 / angle and its remainders spoil the bound; then the faster one alone).
+bool turning_rate(const Vec3 &n, const Vec3 &ea, const Vec3 &wa, bool inner_a, const Vec3 &eb,
+                  const Vec3 &wb, bool inner_b, Vec3 &omega) {
+  const Vec3 ma = cross(ea, n), mb = cross(eb, n);
+  const double ga = norm2(ma), gb = norm2(mb), gab = dot(ma, mb);
+  const double ra = dot(wa, ma), rb = dot(wb, mb);
+  if (inner_a && inner_b) {
+    const double det = ga * gb - gab * gab;
+    if (det > 1e-2 * ga * gb) {  // axes more than ~6 degrees apart
+      const double alpha = (gb * ra - gab * rb) / det, beta = (ga * rb - gab * ra) / det;
+      omega = alpha * ma + beta * mb;
+      return true;
+    }
+    // Nearly parallel: square to the axis that turns faster across n only.
+    (std::abs(ra) >= std::abs(rb) ? inner_b : inner_a) = false;
+  }
+  if (inner_a && ga > 0.5) {
+    omega = (ra / ga) * ma;
+    return true;
+  }
+  if (inner_b && gb > 0.5) {
+    omega = (rb / gb) * mb;
+    return true;
+  }
+  return false;
+}
+
+// A step s in [0, s_max] with bound > 0 on [0, s) (bound.value(0) > 0): s_max if the bound
+// stays positive up to it (`clear`), else a point at or below the first root. Chords from the
+// left (below the root of a concave function) and tangents from the right (above it), a few
+// rounds only: the step need not be the root, only safe and close.
+struct SafeStep {
+  double s = 0.0;
+  bool clear = false;
+};
+
+SafeStep safe_step(const GapBound &bound, double s_max) {
+  double lo = 0.0, f_lo = bound.value(0.0);
+  double hi = s_max, f_hi = bound.value(s_max);
+  if (f_hi > 0.0) return {s_max, true};  // concave, positive at both ends: positive between
+  constexpr int kRounds = 6;
+  constexpr double kClose = 1e-3;  // stop once the root is bracketed to 0.1 %
+  for (int round = 0; round < kRounds && hi - lo > kClose * hi; ++round) {
+    const double q = bound.slope(hi);
+    if (q < 0.0) {
+      const double s = hi - f_hi / q;  // tangent from the right: not below the root
+      if (s > lo && s < hi) {
+        const double f = bound.value(s);
+        (f > 0.0 ? lo : hi) = s;
+        (f > 0.0 ? f_lo : f_hi) = f;
+      }
+    }
+    // The chord, kept off the ends: where round-off would put it on hi (a root within an ulp
+    // or two of hi) the step lands just below hi instead, and every round moves an end.
+    const double frac = f_lo > f_hi ? f_lo / (f_lo - f_hi) : 0.5;
+    const double s = lo + std::clamp(frac, kClose, 1.0 - kClose) * (hi - lo);
+    if (!(s > lo && s < hi)) break;
+    const double f = bound.value(s);
+    (f > 0.0 ? lo : hi) = s;
+    (f > 0.0 ? f_lo : f_hi) = f;
+  }
+  return {lo, false};
+}
+
+Vec3 unit_or(const Vec3 &v, const Vec3 &fallback) {
+  const double v2 = norm2(v);
+  return v2 > 1e-200 ? (1.0 / std::sqrt(v2)) * v : fallback;
+}
+
+// The direction of the closest points, made orthogonal to each axis whose closest point is
+// interior (as it is exactly there). The bound loses h |n . e| at once, and for long rods the
+// closest points' round-off (eps |s| |e|) tilts gap/|gap| enough for that to reach 1e-10 D.
+// Both interior: the normal of the plane of both axes, by contact_normal's e_a x (e_a - f).
+Vec3 separating_normal(const SegmentClosest &c, const Vec3 &r, const Vec3 &ea, const Vec3 &eb,
+                       double h) {
+  const Vec3 n0 = contact_normal(c, r, ea, eb);
+  const bool inner_a = std::abs(c.s) < h, inner_b = std::abs(c.t) < h;
+  if (inner_a && inner_b) {
+    const Vec3 f = std::copysign(1.0, dot(ea, eb)) * eb;
+    const Vec3 x = cross(ea - f, ea);
+    if (norm2(x) > 1e-28) {
+      const Vec3 n = unit_or(x, n0);
+      return dot(n, n0) < 0.0 ? -n : n;
+    }
+  }
+  if (inner_a) return unit_or(n0 - dot(n0, ea) * ea, n0);
+  if (inner_b) return unit_or(n0 - dot(n0, eb) * eb, n0);
+  return n0;
+}
+
+// The pair at time t: gap, its rate, and the bound of its later values along the normal.
+struct PairState {
+  double gap = 0.0;    // |closest points| - D
+  double rate = 0.0;   // d gap / dt (< 0: approaching)
+  GapBound bounds[2];  // lower bounds of the later gap (margin 0): fixed and turning normal
+  int count = 1;
+  double lipschitz = 0.0;  // |d gap / dt| <= this, always
+};
+
+PairState pair_state(const Flight &a, const Flight &b, double h, double D, double t) {
+  const Vec3 ea = a.axis(t), eb = b.axis(t);
+  const Vec3 r = b.position(t) - a.position(t);
+  const SegmentClosest c = segment_closest_inline(r, ea, h, eb, h);
+  const Vec3 n = separating_normal(c, r, ea, eb, h);
+  PairState st;
+  st.gap = std::sqrt(c.dist2) - D;
+  // Velocities of the closest material points; the parameters' own motion does not change the
+  // distance to first order (they minimise it).
+  const Vec3 ua = a.v + cross(a.w, c.s * ea), ub = b.v + cross(b.w, c.t * eb);
+  st.rate = dot(n, ua - ub);
+  st.lipschitz = norm(a.v - b.v) + h * (norm(a.w) + norm(b.w));
+  GapBound &fixed = st.bounds[0];
+  fixed.a = axis_bound(n, ea, a.w);
+  fixed.b = axis_bound(n, eb, b.w);
+  fixed.h = h;
+  fixed.closing = dot(n, a.v - b.v);
+  // The separation along n itself, not the segment distance: a lower bound of the true gap
+  // whatever the round-off of the closest points (equal to it in exact arithmetic).
+  fixed.g0 = -dot(n, r) - h * (std::abs(fixed.a.A) + std::abs(fixed.b.A)) - D;
+  st.count = 1;
+  Vec3 omega;
+  if (turning_rate(n, ea, a.w, std::abs(c.s) < h, eb, b.w, std::abs(c.t) < h, omega)) {
+    st.bounds[1] = turning_bound(n, omega, -r, a.v - b.v, ea, a.w, eb, b.w, h, fixed.g0);
+    st.count = 2;
+  }
+  return st;
+}
+
+ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
+                        double t_to, const ContactTimeSettings &settings) {
+  const double tol = settings.tolerance;
+  ContactTime out;
+  double t = t_from;
+  for (;;) {
+    if (out.iterations >= settings.max_iterations) {
+      out.converged = false;
+      out.t = t;
+      return out;
+    }
+    PairState st = pair_state(a, b, h, D, t);
+    ++out.iterations;
+    if (!std::isfinite(st.gap) || !std::isfinite(st.rate) || !std::isfinite(st.lipschitz)) {
+      out.converged = false;
+      out.t = t;
+      return out;
+    }
+    // A contact: touching and closing, or overlapping by more than the tolerance (possible
+    // only at t_from: the steps below never let the gap fall below -tolerance).
+    if (st.gap <= -tol || (st.gap <= tol && st.rate < 0.0)) {
+      out.found = true;
+      out.t = t;
+      return out;
+    }
+    // Touching but not closing (a collision just processed, or a graze): step on while the
+    // gap stays above -tolerance, until the pair parts or closes again. Else above zero.
+    const double margin = st.gap <= tol ? tol : 0.0;
+    if (t >= t_to) {
+      out.t = t_to;
+      return out;
+    }
+    // The separation along n can come out below the margin by round-off where the gap is
+    // barely above it: then the plain bound gap(t + s) >= gap(t) - lipschitz s.
+    SafeStep step;
+    step.s = 0.0;
+    for (int k = 0; k < st.count; ++k) {
+      GapBound &bound = st.bounds[k];
+      bound.g0 += margin;
+      if (!(bound.g0 > 0.0) || !std::isfinite(bound.slope(t_to - t))) continue;
+      const SafeStep candidate = safe_step(bound, t_to - t);
+      if (candidate.clear || candidate.s > step.s) step = candidate;
+      if (step.clear) break;
+    }
+    if (step.s <= 0.0) {
+      step.s = (st.gap + margin) / st.lipschitz;
+      step.clear = !(step.s < t_to - t);
+    }
+    if (step.clear) {
+      out.t = t_to;
+      return out;
+    }
+    t += step.s;
+  }
+}
+
+}  // namespace
 
 Vec3 Flight::position(double t) const { return x + (t - t0) * v; }
 
 Vec3 Flight::axis(double t) const {
+  const double tau = t - t0;
   const double w2 = norm2(w);
-  if (w2 == 0.0) return e;
-  const double om = std::sqrt(w2), a = om * (t - t0);
-  const Vec3 u = (1.0 / om) * w;
-  return std::cos(a) * e + std::sin(a) * cross(u, e) + ((1.0 - std::cos(a)) * dot(u, e)) * u;
+  const double a2 = w2 * tau * tau;
+  double cos_a, sin_over_w, vers_over_w2;  // cos a, sin(a)/|w|, (1 - cos a)/|w|^2
+  if (a2 < kSeriesAngle2) {
+    const double vers = versine_series(a2);
+    cos_a = 1.0 - a2 * vers;
+    sin_over_w = tau * sinc_series(a2);
+    vers_over_w2 = tau * tau * vers;
+  } else {
+    const double wn = std::sqrt(w2), ang = wn * tau;
+    const double half_sin = std::sin(0.5 * ang);
+    cos_a = std::cos(ang);
+    sin_over_w = std::sin(ang) / wn;
+    vers_over_w2 = 2.0 * half_sin * half_sin / w2;  // 1 - cos a without cancellation
+  }
+  return cos_a * e + sin_over_w * cross(w, e) + (vers_over_w2 * dot(w, e)) * w;
 }
 
 ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
                           double t_to, const ContactTimeSettings &settings) {
-  ContactTime out;
-  out.t = t_to;
-  if (h == 0.0) {  // spheres: |r + u s|^2 = D^2
-    out.iterations = 1;
-    const Vec3 r = a.position(t_from) - b.position(t_from), u = a.v - b.v;
-    const double ru = dot(r, u), uu = norm2(u), c = norm2(r) - D * D;
-    if (ru >= 0.0 || uu == 0.0) return out;
-    const double disc = ru * ru - uu * c;
-    if (disc < 0.0) return out;
-    const double s = c <= 0.0 ? 0.0 : c / (-ru + std::sqrt(disc));
-    if (t_from + s <= t_to) out.found = true, out.t = t_from + s;
+  if (!(t_to >= t_from) || !std::isfinite(t_from) || !std::isfinite(t_to)) {
+    ContactTime out;  // an empty or non-finite interval: nothing searched
+    out.t = t_from;
+    out.converged = std::isfinite(t_from) && std::isfinite(t_to);
     return out;
   }
-  double t = t_from;
-  while (t <= t_to && out.iterations < settings.max_iterations) {
-    ++out.iterations;
-    const Vec3 r = b.position(t) - a.position(t);
-    const Vec3 ea = a.axis(t), eb = b.axis(t);
-    const SegmentClosest sc = segment_closest_inline(r, ea, h, eb, h);
-    const double g = std::sqrt(sc.dist2) - D;
-    const Vec3 n = (1.0 / std::sqrt(sc.dist2)) * sc.gap;
-    const Vec3 pa = a.v + cross(a.w, sc.s * ea), pb = b.v + cross(b.w, sc.t * eb);
-    const double rate = dot(n, pa - pb);
-    if (g <= settings.tolerance) {
-      if (rate < 0.0) {
-        out.found = true;
-        out.t = t;
-        return out;
-      }
-      t += 1e-9;  // touching and parting
-      continue;
-    }
-    const double bound = norm(a.v - b.v) + h * (norm(a.w) + norm(b.w));
-    if (bound <= 0.0) return out;
-    t += g / bound;
-  }
-  out.converged = !(t <= t_to);
-  if (!out.converged) out.t = t;
-  return out;
+  if (h <= 0.0) return sphere_contact(a, b, D, t_from, t_to, settings);
+  return rod_contact(a, b, h, D, t_from, t_to, settings);
 }
 
 }  // namespace hardrod

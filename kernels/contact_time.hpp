@@ -43,6 +43,25 @@ struct ContactTime {
 // If the pair touches and separates at t_from (a collision between them was just processed),
 // that touch is not reported: the search starts once they part, and finds a later contact if
 // there is one.
+//
+// The rules, in order, at each time t the search visits (t_from first):
+// - gap <= -tolerance (an overlap; only possible at t_from): found at t. Whether or not the
+//   pair approaches: an overlap is never hidden from the caller.
+// - gap <= tolerance and dg/dt < 0 (the rate of the closest material points along the normal):
+//   found at t.
+// - gap <= tolerance and not approaching (touching and separating, or grazing): the search
+//   steps on with the gap proven above -tolerance (not above 0) until the pair parts, so the
+//   worst overlap it can pass without reporting is the tolerance itself; a contact found while
+//   still touching can have a gap down to -tolerance. (Steps grow geometrically as the gap
+//   opens: a few evaluations after an elastic collision.)
+// - else a step that the bound proves contact-free (gap > 0 on it).
+// Spheres use the closed form under the same rules: touching and not approaching is never a
+// contact (their distance is convex in time), and the contact is where the gap is tolerance/2,
+// so that its round-off keeps it in (0, tolerance]; iterations = 1.
+// Rods: a found contact has gap in [-1e-12, tolerance] away from the touching start (round-off
+// of the segment distance at L/D = 1000 included); converged = false only when max_iterations
+// evaluations did not reach a contact or t_to (not seen in 2500 random realistic collisions, at
+// most 21 evaluations there); non-finite input: converged = false at once, t = t_from.
 ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
                           double t_to, const ContactTimeSettings &settings);
 

@@ -1,0 +1,427 @@
+// Tests of the first contact time of two free-flying capsules (first_contact, Flight).
+// Reference: dense sampling of the gap on a fine grid, then bisection of the first sign change
+// (an upper bound of the first contact: the kernel must never be later), and the grid's
+// Lipschitz bound |dg/dt| <= |v_a - v_b| + h (|w_a| + |w_b|) for a stretch proven contact-free
+// (the kernel must never be earlier). Random realistic collisions (nematic rods L/D = 5 at
+// |v| ~ 1.7, |w| ~ 1; needles L/D = 1000; spheres) with fixed seeds, then the extremes one by
+// one with analytic contact times. Serial; each test owns its generator.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "kernels/contact_time.hpp"
+
+namespace hardrod {
+namespace {
+
+constexpr double kD = 1.0;
+constexpr double kTol = 1e-10;
+
+double gap_at(const Flight &a, const Flight &b, double h, double t) {
+  const Vec3 r = b.position(t) - a.position(t);
+  const SegmentClosest c = segment_closest(r, a.axis(t), h, b.axis(t), h);
+  return std::sqrt(c.dist2) - kD;
+}
+
+// Rate of the gap by a central difference (for "approaching" checks on analytic cases).
+double gap_rate(const Flight &a, const Flight &b, double h, double t) {
+  const double dt = 1e-7;
+  return (gap_at(a, b, h, t + dt) - gap_at(a, b, h, t - dt)) / (2 * dt);
+}
+
+std::string describe(const Flight &f) {
+  std::ostringstream os;
+  os.precision(17);
+  auto put = [&](const char *name, const Vec3 &v) {
+    os << name << "{" << v.x << ", " << v.y << ", " << v.z << "} ";
+  };
+  put("x", f.x);
+  put("e", f.e);
+  put("v", f.v);
+  put("w", f.w);
+  os << "t0 " << f.t0;
+  return os.str();
+}
+
+// An overlap beyond the segment distance's round-off (a few eps |r|, |r| up to ~1000 D).
+constexpr double kOverlap = -1e-12;
+
+struct Reference {
+  bool overlap = false;   // a sample with gap < kOverlap: a contact no later than t_hi
+  double t_hi = 0.0;      // gap(t_hi) < kOverlap
+  double free_until = 0;  // gap > tolerance proven on [t_from, free_until]
+};
+
+Reference reference(const Flight &a, const Flight &b, double h, double t0, double t1, int samples) {
+  const double lipschitz =
+      norm(a.v - b.v) + h * (norm(a.w) + norm(b.w));  // |d gap / dt| at most this
+  const double step = (t1 - t0) / samples;
+  Reference ref;
+  ref.free_until = t0;
+  bool free = true;
+  double prev = t0;
+  for (int i = 0; i <= samples; ++i) {
+    const double t = i == samples ? t1 : t0 + i * step;
+    const double g = gap_at(a, b, h, t);
+    if (free && g > kTol + lipschitz * step) {
+      ref.free_until = std::min(t1, t + step);
+    } else {
+      free = false;
+    }
+    if (g < kOverlap) {
+      double lo = prev, hi = t;  // gap(lo) >= kOverlap > gap(hi)
+      for (int k = 0; k < 200 && hi - lo > 1e-16 * std::max(1.0, std::abs(hi)); ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (gap_at(a, b, h, mid) < kOverlap ? hi : lo) = mid;
+      }
+      ref.overlap = true;
+      ref.t_hi = hi;
+      return ref;
+    }
+    prev = t;
+  }
+  return ref;
+}
+
+Vec3 normal3(std::mt19937_64 &rng, double sigma) {
+  std::normal_distribution<double> n(0.0, sigma);
+  return {n(rng), n(rng), n(rng)};
+}
+
+Vec3 unit(const Vec3 &v) { return (1.0 / norm(v)) * v; }
+
+// A nematic-like axis (about 17 degrees from z, no head or tail) and an angular velocity
+// perpendicular to it, components of spread sigma_w.
+Flight random_body(std::mt19937_64 &rng, double sigma_w) {
+  Flight f;
+  const Vec3 tilt = normal3(rng, 0.3);
+  f.e = unit(Vec3{tilt.x, tilt.y, 1.0});
+  if (rng() & 1u) f.e = -f.e;
+  f.v = normal3(rng, 1.0);
+  const Vec3 w = normal3(rng, sigma_w);
+  f.w = w - dot(w, f.e) * f.e;
+  return f;
+}
+
+// A random pair of bodies at time t_from = t0 whose gap is in [gap_lo, gap_hi].
+void random_pair(std::mt19937_64 &rng, double h, double sigma_w, double gap_lo, double gap_hi,
+                 double t0, Flight &a, Flight &b) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double reach_xy = kD + gap_hi + (h > 0 ? 0.6 * h : 0.0), reach_z = 2 * h + kD + gap_hi;
+  for (;;) {
+    a = random_body(rng, h > 0 ? sigma_w : 0.0);
+    b = random_body(rng, h > 0 ? sigma_w : 0.0);
+    a.x = {};
+    b.x = {reach_xy * u(rng), reach_xy * u(rng), reach_z * u(rng)};
+    a.t0 = b.t0 = t0;
+    const double g = gap_at(a, b, h, t0);
+    if (g >= gap_lo && g <= gap_hi) return;
+  }
+}
+
+struct Tally {
+  long searches = 0, found = 0, iterations = 0, max_iterations = 0, unconverged = 0;
+  long found_iterations = 0, found_max_iterations = 0;  // of the searches that find a contact
+};
+
+// One random pair against the reference; returns the number of failures (reported).
+int check_pair(const Flight &a, const Flight &b, double h, double t0, double dt, Tally &tally) {
+  const ContactTimeSettings settings;
+  const ContactTime ct = first_contact(a, b, h, kD, t0, t0 + dt, settings);
+  const Reference ref = reference(a, b, h, t0, t0 + dt, 4000);
+  ++tally.searches;
+  tally.found += ct.found;
+  tally.iterations += ct.iterations;
+  tally.max_iterations = std::max<long>(tally.max_iterations, ct.iterations);
+  tally.unconverged += !ct.converged;
+  if (ct.found) {
+    tally.found_iterations += ct.iterations;
+    tally.found_max_iterations = std::max<long>(tally.found_max_iterations, ct.iterations);
+  }
+  const double slack = 1e-15 * std::max(1.0, std::abs(t0 + dt));
+  int failures = 0;
+  auto fail = [&](const char *what) {
+    ADD_FAILURE() << what << ": h=" << h << " t=" << ct.t << " found=" << ct.found
+                  << " converged=" << ct.converged << " it=" << ct.iterations
+                  << " ref overlap=" << ref.overlap << " t_hi=" << ref.t_hi
+                  << " free_until=" << ref.free_until << "\n a: " << describe(a)
+                  << "\n b: " << describe(b);
+    ++failures;
+  };
+  if (!std::isfinite(ct.t) || ct.t < t0 || ct.t > t0 + dt) fail("t outside the interval");
+  if (ref.overlap && ct.t > ref.t_hi + slack) fail("later than the reference's overlap");
+  if (ref.overlap && ct.converged && !ct.found) fail("missed a contact");
+  if (ct.found) {
+    const double g = gap_at(a, b, h, ct.t);
+    if (!(g >= kOverlap && g <= kTol)) fail("gap at the contact outside [-1e-12, tolerance]");
+    if (ct.t < ref.free_until - slack) fail("earlier than a proven contact-free stretch");
+  }
+  return failures;
+}
+
+void print_tally(const char *name, const Tally &t) {
+  std::printf(
+      "[ contact  ] %s: %ld searches, iterations mean %.2f max %ld; %ld contacts, "
+      "iterations mean %.2f max %ld; %ld unconverged\n",
+      name, t.searches, double(t.iterations) / double(t.searches), t.max_iterations, t.found,
+      double(t.found_iterations) / double(std::max(1L, t.found)), t.found_max_iterations,
+      t.unconverged);
+}
+
+void random_suite(const char *name, double h, double sigma_w, std::uint64_t seed, int pairs) {
+  std::mt19937_64 rng(seed);
+  const double dts[] = {1e-3, 3e-3, 1e-2, 3e-2};
+  Tally tally;
+  int failures = 0;
+  for (int i = 0; i < pairs && failures < 5; ++i) {
+    Flight a, b;
+    const double t0 = 0.37;  // flights start at their own t0 = t_from, not at 0
+    random_pair(rng, h, sigma_w, 1e-9, 0.05, t0, a, b);
+    failures += check_pair(a, b, h, t0, dts[i % 4], tally);
+  }
+  print_tally(name, tally);
+  EXPECT_EQ(tally.unconverged, 0);
+  EXPECT_GT(tally.found, pairs / 10);  // the suite does exercise collisions
+}
+
+TEST(FirstContact, RandomNematicRodsNeverLateNorEarly) {
+  random_suite("L/D 5", 2.5, 0.7, 20261125, 2000);
+}
+
+TEST(FirstContact, RandomNeedlesNeverLateNorEarly) {
+  random_suite("L/D 1000", 500.0, 0.0035, 20261126, 500);
+}
+
+TEST(FirstContact, RandomSpheresNeverLateNorEarly) {
+  random_suite("spheres", 0.0, 0.0, 20261127, 2000);
+}
+
+// Flight::axis: unit to 1e-14 and the rotation by |w| (t - t0) about w (Eigen's angle-axis),
+// in the series range (tiny angles) and beyond it (up to ~100 rad).
+TEST(Flight, AxisIsTheExactRotationAndStaysUnit) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 2000; ++i) {
+    Flight f;
+    f.e = unit(normal3(rng, 1.0));
+    f.w = std::pow(10.0, -9.0 + 10.0 * u(rng)) * unit(normal3(rng, 1.0));
+    f.t0 = 0.25;
+    const double t = f.t0 + std::pow(10.0, -4.0 + 5.0 * u(rng)) * (u(rng) < 0.5 ? -1 : 1);
+    const Vec3 e = f.axis(t);
+    EXPECT_NEAR(norm(e), 1.0, 1e-14);
+    const double angle = norm(f.w) * (t - f.t0);
+    const Eigen::Vector3d axis(f.w.x, f.w.y, f.w.z);
+    const Eigen::Vector3d ref =
+        Eigen::AngleAxisd(angle, axis.normalized()) * Eigen::Vector3d(f.e.x, f.e.y, f.e.z);
+    EXPECT_NEAR(e.x, ref.x(), 1e-13 * std::max(1.0, std::abs(angle)));
+    EXPECT_NEAR(e.y, ref.y(), 1e-13 * std::max(1.0, std::abs(angle)));
+    EXPECT_NEAR(e.z, ref.z(), 1e-13 * std::max(1.0, std::abs(angle)));
+  }
+  Flight still;
+  still.e = unit(Vec3{1, 2, 3});
+  const Vec3 e = still.axis(10.0);  // w = 0: the axis, bit for bit
+  EXPECT_EQ(e.x, still.e.x);
+  EXPECT_EQ(e.y, still.e.y);
+  EXPECT_EQ(e.z, still.e.z);
+}
+
+// Rod a spins about z (no translation at all) in the plane of rod b's centre; b stands along
+// z at distance p from a's centre. Gap = p |sin(phi - theta)| - D while the projection of b
+// falls inside a: contact at theta = phi - asin(D / p). A search with the rate |v_a - v_b| = 0
+// alone would call this pair contact-free.
+struct Spinner {
+  Flight a, b;
+  double h = 2.5, omega = 3.0, p = 2.0, phi = 1.0;
+  Spinner() {
+    a.e = {1, 0, 0};
+    a.w = {0, 0, omega};
+    b.e = {0, 0, 1};
+    b.x = {p * std::cos(phi), p * std::sin(phi), 0.0};
+  }
+  double first_touch() const { return (phi - std::asin(kD / p)) / omega; }
+};
+
+TEST(FirstContact, RotationAloneBringsAContactTheTranslationRateWouldSkip) {
+  const Spinner s;
+  const ContactTime ct = first_contact(s.a, s.b, s.h, kD, 0.0, 1.0, {});
+  ASSERT_TRUE(ct.found);
+  EXPECT_TRUE(ct.converged);
+  EXPECT_LE(ct.t, s.first_touch());
+  EXPECT_GE(ct.t, s.first_touch() - 2 * kTol / (s.p * s.omega));
+  EXPECT_LE(gap_at(s.a, s.b, s.h, ct.t), kTol);
+}
+
+// The same spinner just after a touch: the gap is zero and opening. That touch is not
+// reported; the other half of a's axis closes on b at theta = phi + pi - asin(D / p).
+TEST(FirstContact, TouchAndSeparateStartFindsTheNextContactOnly) {
+  Spinner s;
+  s.a.t0 = -(s.phi + std::asin(kD / s.p)) / s.omega;  // theta = phi + asin(D/p) at t = 0
+  s.b.t0 = s.a.t0;
+  s.b.x = {s.p * std::cos(s.phi), s.p * std::sin(s.phi), 0.0};
+  ASSERT_NEAR(gap_at(s.a, s.b, s.h, 0.0), 0.0, 1e-14);
+  ASSERT_GT(gap_rate(s.a, s.b, s.h, 0.0), 0.0);
+  const double next = (std::numbers::pi - 2 * std::asin(kD / s.p)) / s.omega;
+  const ContactTime ct = first_contact(s.a, s.b, s.h, kD, 0.0, 2.0, {});
+  ASSERT_TRUE(ct.found);
+  EXPECT_LE(ct.t, next);
+  EXPECT_GE(ct.t, next - 2 * kTol / (s.p * s.omega));
+  // Nothing before it: the step ends the search at the interval's end.
+  const ContactTime none = first_contact(s.a, s.b, s.h, kD, 0.0, 0.9 * next, {});
+  EXPECT_FALSE(none.found);
+  EXPECT_TRUE(none.converged);
+  EXPECT_EQ(none.t, 0.9 * next);
+}
+
+// Side by side, receding after an elastic bounce (no rotation): never again.
+TEST(FirstContact, TouchAndSeparateByTranslationIsNoContact) {
+  Flight a, b;
+  a.e = b.e = {0, 0, 1};
+  b.x = {kD, 0, 0};
+  b.v = {0.5, 0, 0};
+  const ContactTime ct = first_contact(a, b, 2.5, kD, 0.0, 0.01, {});
+  EXPECT_FALSE(ct.found);
+  EXPECT_TRUE(ct.converged);
+  EXPECT_LE(ct.iterations, 3);
+}
+
+// Parallel and anti-parallel axes side by side, closing at speed u: contact at gap / u.
+TEST(FirstContact, ParallelAndAntiParallelTranslation) {
+  for (double sign : {1.0, -1.0}) {
+    Flight a, b;
+    a.e = {0, 0, 1};
+    b.e = {0, 0, sign};
+    b.x = {kD + 0.03, 0, 1.0};
+    b.v = {-1.5, 0, 0.2};
+    const ContactTime ct = first_contact(a, b, 2.5, kD, 0.0, 0.1, {});
+    ASSERT_TRUE(ct.found);
+    EXPECT_LE(ct.t, 0.03 / 1.5 + 1e-16);
+    EXPECT_GE(ct.t, 0.03 / 1.5 - kTol / 1.5);
+    EXPECT_GE(gap_at(a, b, 2.5, ct.t), kOverlap);
+    EXPECT_LE(ct.iterations, 3);  // exact translation bound: one step
+  }
+}
+
+// Crossing axes (d = 0) and any deep overlap at t_from: found at t_from, whatever the motion.
+TEST(FirstContact, OverlapAtStartIsFoundAtStart) {
+  Flight a, b;
+  a.e = {1, 0, 0};
+  b.e = {0, 1, 0};
+  b.v = {0, 0, 1};  // receding: still reported, an overlap is never hidden
+  for (double h : {2.5, 500.0, 0.0}) {
+    const ContactTime ct = first_contact(a, b, h, kD, 0.5, 0.6, {});
+    EXPECT_TRUE(ct.found);
+    EXPECT_EQ(ct.t, 0.5);
+    EXPECT_EQ(ct.iterations, 1);
+  }
+}
+
+TEST(FirstContact, FarApartOrStillIsOneEvaluation) {
+  Flight a, b;
+  a.e = {1, 0, 0};
+  b.e = {0, 1, 0};
+  b.x = {1e6, 0, 0};
+  b.v = {-1, 0, 0};
+  a.w = {0, 0, 1};
+  const ContactTime far = first_contact(a, b, 2.5, kD, 0.0, 0.01, {});
+  EXPECT_FALSE(far.found);
+  EXPECT_TRUE(far.converged);
+  EXPECT_EQ(far.t, 0.01);
+  EXPECT_EQ(far.iterations, 1);
+  // Touching, no relative motion at all: never approaching, never a contact.
+  Flight c, d;
+  c.e = d.e = {0, 0, 1};
+  d.x = {kD, 0, 0};
+  d.v = c.v = {0.3, 0.2, 0.1};
+  const ContactTime still = first_contact(c, d, 2.5, kD, 0.0, 0.01, {});
+  EXPECT_FALSE(still.found);
+  EXPECT_TRUE(still.converged);
+  EXPECT_LE(still.iterations, 2);
+}
+
+// Needles (L/D = 1000): a spins about its centre (end speed |w| h = 1) towards b, which stands
+// across a's axis 0.2 D inside a's end, 0.01 D away.
+TEST(FirstContact, LongNeedleEndSweep) {
+  Flight a, b;
+  const double h = 500.0;
+  a.e = {1, 0, 0};
+  a.w = {0, 0, 1.0 / h};
+  b.e = {0, 0, 1};
+  b.x = {h - 0.2, kD + 0.01, 0.0};
+  const ContactTime ct = first_contact(a, b, h, kD, 0.0, 0.1, {});
+  ASSERT_TRUE(ct.found);
+  EXPECT_LE(gap_at(a, b, h, ct.t), kTol);
+  EXPECT_GE(gap_at(a, b, h, ct.t), -1e-12);
+  const Reference ref = reference(a, b, h, 0.0, 0.1, 20000);
+  ASSERT_TRUE(ref.overlap);
+  EXPECT_LE(ct.t, ref.t_hi);
+  EXPECT_GE(ct.t, ref.free_until);
+}
+
+TEST(FirstContact, SpheresClosedForm) {
+  Flight a, b;  // head on, closing at 2 from 2 D apart: contact at 1
+  b.x = {3.0, 0.0, 0.0};
+  b.v = {-2.0, 0.0, 0.0};
+  ContactTime ct = first_contact(a, b, 0.0, kD, 0.0, 2.0, {});
+  ASSERT_TRUE(ct.found);
+  EXPECT_NEAR(ct.t, 1.0, 1e-10);
+  EXPECT_LE(ct.t, 1.0);
+  b.x = {3.0, 1.2, 0.0};  // passes at 1.2 > D: no contact
+  ct = first_contact(a, b, 0.0, kD, 0.0, 5.0, {});
+  EXPECT_FALSE(ct.found);
+  EXPECT_EQ(ct.t, 5.0);
+  b.x = {kD, 0.0, 0.0};  // touching, receding: no contact
+  b.v = {1.0, 0.0, 0.0};
+  ct = first_contact(a, b, 0.0, kD, 0.0, 5.0, {});
+  EXPECT_FALSE(ct.found);
+  b.v = {};  // touching, still: no contact
+  ct = first_contact(a, b, 0.0, kD, 0.0, 5.0, {});
+  EXPECT_FALSE(ct.found);
+}
+
+// The iteration budget: a side-by-side crossing that needs many steps, cut at 3. Then t is
+// a rigorous lower bound of the first contact: the gap there is still positive.
+TEST(FirstContact, IterationBudgetGivesALowerBound) {
+  Spinner s;
+  ContactTimeSettings few;
+  few.max_iterations = 3;
+  const ContactTime ct = first_contact(s.a, s.b, s.h, kD, 0.0, 1.0, few);
+  EXPECT_FALSE(ct.found);
+  EXPECT_FALSE(ct.converged);
+  EXPECT_EQ(ct.iterations, 3);
+  EXPECT_LT(ct.t, s.first_touch());
+  EXPECT_GT(gap_at(s.a, s.b, s.h, ct.t), kTol);
+}
+
+// Never NaN, never stuck, for finite input at the extremes: huge distances and speeds,
+// zero-length intervals, and a non-finite input gives up at once.
+TEST(FirstContact, ExtremesStayFinite) {
+  std::mt19937_64 rng(99);
+  for (int i = 0; i < 500; ++i) {
+    Flight a = random_body(rng, 1.0), b = random_body(rng, 1.0);
+    b.x = normal3(rng, std::pow(10.0, double(i % 7)));
+    a.v = normal3(rng, std::pow(10.0, double(i % 5) - 2.0));
+    for (double h : {0.0, 2.5, 500.0}) {
+      const ContactTime ct = first_contact(a, b, h, kD, 0.0, 0.01, {});
+      EXPECT_TRUE(std::isfinite(ct.t));
+      EXPECT_LE(ct.iterations, ContactTimeSettings{}.max_iterations);
+      const ContactTime zero = first_contact(a, b, h, kD, 0.0, 0.0, {});
+      EXPECT_EQ(zero.t, 0.0);
+    }
+  }
+  Flight a, b;
+  b.x = {NAN, 0, 0};
+  const ContactTime ct = first_contact(a, b, 2.5, kD, 0.0, 0.01, {});
+  EXPECT_FALSE(ct.found);
+  EXPECT_FALSE(ct.converged);
+  EXPECT_EQ(ct.t, 0.0);
+}
+
+}  // namespace
+}  // namespace hardrod
