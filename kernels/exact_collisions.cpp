@@ -165,6 +165,15 @@ class ClusterPass {
       fb.w = fb.w - (j * inv_i) * arm_b;
       stats_.virial.add(j * dot(n, fa.x - xb));
       ++stats_.collisions;
+    } else {
+      // A graze: the search saw the pair closing, this geometry (rounded differently) does
+      // not. Nothing changes; the pair is searched again from a moment later, so that the
+      // pass always moves on (the gap can shrink by at most ~1e-12 D meanwhile). A pair that
+      // overlaps already (a start file from the midpoint method) and recedes is left to part.
+      ++stats_.grazes;
+      if (std::sqrt(sc.dist2) - cx_.shape.diameter > -cx_.settings.contact.tolerance)
+        predict(a, b, std::min(cx_.dt, t + 1e-9 * cx_.dt), true);
+      return;
     }
     ++version_[a];
     ++version_[b];
@@ -429,6 +438,7 @@ void add_counts(ExactStats &to, const ExactStats &from) {
   to.root_iterations += from.root_iterations;
   to.unconverged += from.unconverged;
   to.fallbacks += from.fallbacks;
+  to.grazes += from.grazes;
   to.virial += from.virial;
 }
 

@@ -63,6 +63,7 @@ struct ExactStats {
   long long unconverged = 0;      // searches that used up their iterations (resumed later)
   long long regrown = 0;          // joins of clusters that a body's overrun could reach
   long long fallbacks = 0;        // clusters past the event cap (simultaneous solver)
+  long long grazes = 0;           // contacts found closing that the impulse saw receding
   ExactSum virial;                // sum of J n . (x_i - x_j) at the touching configuration
 };
 

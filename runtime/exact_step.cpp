@@ -128,6 +128,7 @@ void Simulation::tally_exact(const DetectionStats &detected, const ExactStats &s
   t.unconverged += stats.unconverged;
   t.regrown += stats.regrown;
   t.fallbacks += stats.fallbacks;
+  t.grazes += stats.grazes;
 }
 
 }  // namespace hardrod

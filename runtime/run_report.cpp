@@ -192,6 +192,7 @@ nlohmann::json exact_json(Simulation &sim) {
           {"largest_cluster", t.largest_cluster},
           {"regrown", t.regrown},
           {"fallbacks", t.fallbacks},
+          {"grazes", t.grazes},
           {"rebuilt_in_step", r.rebuilt_in_step},
           {"collisions_per_step", per_step(t.collisions)},
           {"events_per_step", per_step(t.events)},

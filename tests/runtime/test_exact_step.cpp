@@ -71,5 +71,22 @@ TEST(ExactStep, SameStateForAnyThreadCount) {
   omp_set_num_threads(1);
 }
 
+// A start that overlaps slightly (the midpoint method leaves overlaps of ~1e-4 D in its end
+// states) with the pair receding: the pass leaves the pair to part instead of taking its
+// "contact" again and again until the event cap.
+TEST(ExactStep, OverlappingRecedingStartPartsWithoutFallback) {
+  Scene scene = exact(testing::hard_spheres(3, 0.2, 1e-3));
+  Particles bodies = initial_bodies(scene);
+  // Bodies 0 and 1 neighbours along x: put 1 at 0.9999 D from 0, moving apart.
+  bodies.set_position(1, bodies.position(0) + Vec3{0.9999, 0.0, 0.0});
+  bodies.set_velocity(0, {-1.0, 0.0, 0.0});
+  bodies.set_velocity(1, {1.0, 0.0, 0.0});
+  Simulation sim(scene, bodies);
+  sim.advance(50);
+  EXPECT_EQ(sim.exact_record().totals.fallbacks, 0);
+  EXPECT_LE(sim.exact_record().totals.events, 1000);
+  EXPECT_GT(smallest_gap(sim), -1e-9);
+}
+
 }  // namespace
 }  // namespace hardrod
