@@ -479,12 +479,13 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
     regroup(joins, candidates, scratch, pt);
   }
   // The final partition's physics; the counts of work include the passes joins discarded.
-  stats.collisions = 0;
+  stats.collisions = stats.fallbacks = 0;
   stats.virial = ExactSum();
   for (std::size_t g = 0; g < pt.count(); ++g) {
     if (!pt.alive[g]) continue;
     ++stats.clusters;
     stats.collisions += pt.stats[g].collisions;
+    stats.fallbacks += pt.stats[g].fallbacks;
     stats.virial += pt.stats[g].virial;
     stats.largest_cluster = std::max(
         stats.largest_cluster, static_cast<long long>(pt.body_start[g + 1] - pt.body_start[g]));

@@ -49,8 +49,8 @@ struct ExactSettings {
   SolverSettings solver;        // the fallback's simultaneous solver
 };
 
-// One step's counts (the clusters of the final partition; searches and iterations of every
-// pass, including the passes a regrown cluster discarded).
+// One step's counts: collisions, virial, clusters and fallbacks of the final partition; the
+// work (events, searches, iterations, grazes) of every pass, including those a join discarded.
 struct ExactStats {
   long long candidates = 0;       // listed pairs that could touch in the step
   long long clusters = 0;         // clusters of candidates

@@ -313,6 +313,16 @@ void print_results(const RunState &st, const nlohmann::json &summary, const fs::
              summary["equilibrated"].get<bool>()
                  ? "yes"
                  : "not sure (first and last third of production differ)");
+  if (summary.contains("exact")) {
+    const nlohmann::json &x = summary["exact"];
+    fmt::print(
+        "  exact collisions         {:.4g} per step; {:.4g} searches ({:.3g} gap evaluations "
+        "each), {:.4g} re-predictions per step; largest cluster {}; fallbacks {}\n",
+        x["collisions_per_step"].get<double>(),
+        x["searches"].get<double>() / std::max(1.0, x["steps"].get<double>()),
+        x["root_iterations_per_search"].get<double>(), x["repredictions_per_step"].get<double>(),
+        x["largest_cluster"].get<long long>(), x["fallbacks"].get<long long>());
+  }
   fmt::print("  speed                    {:.1f} ns per particle-step, {:.3g} particle-steps/s\n",
              summary["ns_per_particle_step"].get<double>(),
              summary["particle_steps_per_second"].get<double>());

@@ -1,0 +1,145 @@
+// The exact method's collisions within one step (kernels/exact_collisions.hpp), on bodies set
+// up by hand: the contact time and the impulse of a head-on pair against the closed form, the
+// virial at contact, a chain whose velocity changes reach bodies outside the first clusters,
+// and the event cap's fallback.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "kernels/contact_detection.hpp"
+#include "kernels/exact_collisions.hpp"
+#include "kernels/free_flight.hpp"
+#include "kernels/neighbor_list.hpp"
+
+namespace hardrod {
+namespace {
+
+// One exact step of bodies p (list built here): what runtime/exact_step.cpp does on one rank.
+struct Step {
+  ExactStats stats;
+  std::vector<FlownBody> flown;
+};
+Step exact_step(Particles &p, const Box &box, const Shape &shape, double dt,
+                ExactSettings settings = {}) {
+  NeighborList list;
+  list.skin = 1.0;
+  build_neighbor_list(list, p, p.size(), box, shape);
+  refresh_motion(p, p.size(), shape, 0.5 * dt);
+  grow_bounds(p, p.size());
+  std::vector<Contact> candidates;
+  detect_contacts(p, box, shape, list, candidates, p.grow.data());
+  ExactScratch scratch;
+  Step s;
+  s.stats = collide_exactly(p, box, shape, list, candidates, dt, settings, scratch, s.flown);
+  fly_step(p, p.size(), shape, 0.5 * dt);
+  land_flown(p, s.flown);
+  return s;
+}
+
+Particles spheres_on_x(const std::vector<double> &x, const std::vector<double> &vx) {
+  Particles p;
+  p.resize(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    p.id[i] = static_cast<std::int64_t>(i);
+    p.set_position(i, {x[i], 5.0, 5.0});
+    p.set_axis(i, {1.0, 0.0, 0.0});
+    p.set_velocity(i, {vx[i], 0.0, 0.0});
+  }
+  return p;
+}
+
+TEST(ExactCollisions, HeadOnSpheresMeetAtTheClosedFormTime) {
+  const Shape sphere{.length = 0.0};
+  const Box box{{20.0, 20.0, 20.0}};
+  const double dt = 0.01;
+  // 1.004 D apart, closing at 2: they touch at t* = 0.002, then swap velocities.
+  Particles p = spheres_on_x({5.0, 6.004}, {1.0, -1.0});
+  const Step s = exact_step(p, box, sphere, dt);
+  EXPECT_EQ(s.stats.collisions, 1);
+  EXPECT_EQ(s.stats.candidates, 1);
+  ASSERT_EQ(s.flown.size(), 2u);
+  EXPECT_DOUBLE_EQ(p.vx[0], -1.0);
+  EXPECT_DOUBLE_EQ(p.vx[1], 1.0);
+  // Flown to t* and back out for dt - t*.
+  const double t_star = 0.004 / 2.0;
+  EXPECT_NEAR(p.x[0], 5.0 + t_star - (dt - t_star), 1e-10);
+  EXPECT_NEAR(p.x[1], 6.004 - t_star + (dt - t_star), 1e-10);
+  // J = m |u| = 2, n . (x_0 - x_1) = -D at contact (n from 1 to 0 points along -x): J n.r = 2 D.
+  EXPECT_NEAR(s.stats.virial.value(), 2.0, 1e-9);
+}
+
+TEST(ExactCollisions, ANewtonsCradleChainsThroughBodiesOutsideTheCandidates) {
+  const Shape sphere{.length = 0.0};
+  const Box box{{30.0, 20.0, 20.0}};
+  const double dt = 0.01;
+  // 0 hits 1 early; 1 then moves fast enough to reach 2, which no candidate of the step's
+  // start involves (2 is 0.05 D from 1, beyond both bodies' free flights of 0.01 D): the
+  // overrun check must join 2 in.
+  Particles p = spheres_on_x({5.0, 6.0005, 7.03}, {1.0, 0.0, 0.0});
+  const Step s = exact_step(p, box, sphere, dt * 5.0);
+  EXPECT_EQ(s.stats.collisions, 2) << "regrown " << s.stats.regrown;
+  EXPECT_GE(s.stats.regrown, 1);
+  EXPECT_NEAR(p.vx[0], 0.0, 1e-15);
+  EXPECT_NEAR(p.vx[1], 0.0, 1e-15);
+  EXPECT_NEAR(p.vx[2], 1.0, 1e-15);
+  EXPECT_GT(p.x[2] - p.x[1], 1.0 - 1e-12);
+}
+
+TEST(ExactCollisions, PastTheEventCapTheClusterIsSolvedTogetherAndCounted) {
+  const Shape sphere{.length = 0.0};
+  const Box box{{30.0, 20.0, 20.0}};
+  // A touching row hit at one end. With no events allowed the cluster falls back to the
+  // simultaneous solver at its first contact, the whole row touching: momentum is kept, the
+  // energy not gained (the simultaneous solver is not the sequence of elastic collisions).
+  Particles p = spheres_on_x({5.0, 6.0 + 1e-11, 7.0 + 2e-11, 8.0 + 3e-11}, {1.0, 0.0, 0.0, 0.0});
+  ExactSettings settings;
+  settings.events_per_body = 0;
+  const Step s = exact_step(p, box, sphere, 0.01, settings);
+  EXPECT_EQ(s.stats.fallbacks, 1);
+  double momentum = 0.0, energy = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    momentum += p.vx[i];
+    energy += 0.5 * p.vx[i] * p.vx[i];
+  }
+  EXPECT_NEAR(momentum, 1.0, 1e-12);
+  EXPECT_LE(energy, 0.5 + 1e-12);
+  EXPECT_GE(s.stats.collisions, 3);
+  for (std::size_t i = 0; i + 1 < p.size(); ++i) EXPECT_GT(p.x[i + 1] - p.x[i], 1.0 - 1e-9);
+}
+
+TEST(ExactCollisions, RodsKeepMomentumAngularMomentumAndEnergy) {
+  const Shape rod{.length = 5.0};
+  const Box box{{40.0, 40.0, 40.0}};
+  // A rod sliding end-first into the middle of another, off centre, so both turn.
+  Particles p;
+  p.resize(2);
+  p.id = {0, 1};
+  p.set_position(0, {10.0, 10.0, 10.0});
+  p.set_axis(0, {1.0, 0.0, 0.0});
+  p.set_velocity(0, {0.0, 0.0, 0.0});
+  p.set_position(1, {10.7, 10.0 + 3.5 + 0.003, 10.0});
+  p.set_axis(1, {0.0, 1.0, 0.0});
+  p.set_velocity(1, {0.0, -1.0, 0.0});
+  p.set_angular_velocity(1, {0.0, 0.0, 0.2});
+  const double inertia = rod.inertia_perp();
+  const auto totals = [&](Vec3 &momentum, Vec3 &angular, double &energy) {
+    momentum = p.velocity(0) + p.velocity(1);
+    angular = cross(p.position(0), p.velocity(0)) + cross(p.position(1), p.velocity(1)) +
+              inertia * (p.angular_velocity(0) + p.angular_velocity(1));
+    energy = 0.5 * (norm2(p.velocity(0)) + norm2(p.velocity(1))) +
+             0.5 * inertia * (norm2(p.angular_velocity(0)) + norm2(p.angular_velocity(1)));
+  };
+  Vec3 m0, l0, m1, l1;
+  double e0 = 0.0, e1 = 0.0;
+  totals(m0, l0, e0);
+  const Step s = exact_step(p, box, rod, 0.01);
+  totals(m1, l1, e1);
+  EXPECT_EQ(s.stats.collisions, 1);
+  EXPECT_LT(norm(m1 - m0), 1e-14);
+  EXPECT_LT(norm(l1 - l0), 1e-12);
+  EXPECT_NEAR(e1, e0, 1e-14);
+  EXPECT_LT(s.stats.root_iterations, 20);
+}
+
+}  // namespace
+}  // namespace hardrod
