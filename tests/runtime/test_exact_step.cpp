@@ -88,5 +88,21 @@ TEST(ExactStep, OverlappingRecedingStartPartsWithoutFallback) {
   EXPECT_GT(smallest_gap(sim), -1e-9);
 }
 
+// A step's flight longer than half the skin cannot be covered by the list: a clear error
+// naming both keys, not a missed collision.
+TEST(ExactStep, AFlightBeyondTheSkinIsRefusedByName) {
+  Scene scene = exact(testing::hard_spheres(6, 0.3, 2e-3));
+  scene.skin = 0.002;
+  Simulation sim(scene);
+  try {
+    sim.advance(10);
+    FAIL() << "no error";
+  } catch (const PhysicsError &e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("run.dt = 0.002"), std::string::npos) << what;
+    EXPECT_NE(what.find("run.skin = 0.002"), std::string::npos) << what;
+  }
+}
+
 }  // namespace
 }  // namespace hardrod
