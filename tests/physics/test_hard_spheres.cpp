@@ -94,7 +94,7 @@ TEST_P(ExactHardSpheres, MatchCarnahanStarlingWithoutOverlap) {
 
 INSTANTIATE_TEST_SUITE_P(TimeSteps, ExactHardSpheres, ::testing::Values(2e-3, 4e-3),
                          [](const auto &info) {
-                           return "dt" + std::to_string(std::llround(info.param * 1e4)) + "e-4";
+                           return "dt_" + std::to_string(std::llround(info.param * 1e3)) + "e_3";
                          });
 
 }  // namespace
