@@ -340,10 +340,14 @@ struct Partition {
   }
 };
 
+// Below this many clusters a step solves them on one thread: a parallel region costs more
+// than a few small clusters.
+constexpr long kParallelClusters = 32;
+
 // Solves clusters [from, partition.count()), threads taking whole clusters.
 void solve(const Context &cx, Partition &pt, std::size_t from) {
   const auto n = static_cast<long>(pt.count() - from);
-#pragma omp parallel if (n > 1)
+#pragma omp parallel if (n > kParallelClusters)
   {
     ClusterPass pass(cx);
 #pragma omp for schedule(dynamic, 4)
