@@ -54,9 +54,11 @@ TEST(ExactStep, NoPairEverOverlapsAndEnergyIsConserved) {
   }
 }
 
+// Large enough (2744 spheres, ~100 clusters per step) that the clusters are solved in
+// parallel (kParallelClusters) and the detection and flight passes are threaded.
 TEST(ExactStep, SameStateForAnyThreadCount) {
   for (const Scene &scene :
-       {exact(testing::small_nematic(2e-3)), exact(testing::hard_spheres(8, 0.45, 2e-3))}) {
+       {exact(testing::small_nematic(2e-3)), exact(testing::hard_spheres(14, 0.45, 2e-3))}) {
     std::string reference;
     for (int threads : {1, 2, 3}) {
       omp_set_num_threads(threads);
