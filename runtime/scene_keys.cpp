@@ -63,6 +63,13 @@ std::string_view total_steps_fit(const Scene &s, const Value &v) {
 bool lattice_start(const Scene &s) { return s.configuration == Configuration::kLattice; }
 bool file_start(const Scene &s) { return s.configuration == Configuration::kFile; }
 
+// The exact method's bounds grow by a whole step's flight at dt ~1e-3 before every step: a
+// wider skin rebuilds less often (BM_ExactStep, docs/performance.md).
+constexpr double kExactSkin = 0.8;
+void skin_for_method(Scene &s) {
+  if (s.method == kExact) s.skin = kExactSkin;
+}
+
 // A sphere has L = 0: its aspect ratio defaults to 0 and may not be anything else.
 void sphere_has_no_length(Scene &s) {
   if (s.shape_name == "sphere") s.shape.length = 0.0;
@@ -156,7 +163,8 @@ constexpr KeySpec kKeys[] = {
      .member = &Scene::solver_max_iterations, .limit = at_least(1),
      .help = "iterations of the multi-contact solver"},
     {.section = "run", .name = "skin", .type = kReal, .member = &Scene::skin,
-     .limit = between_closed(0.0, 2.0),
+     .limit = between_closed(0.0, 2.0), .fallback = skin_for_method,
+     .default_text = "0.3 (0.8 for method = \"exact\")",
      .help = "neighbour-list skin in D: speed only, never the trajectory"},
     // [output]
     {.section = "output", .name = "dir", .type = kString, .member = &Scene::output_dir,

@@ -104,13 +104,15 @@ void BM_ExactStep(benchmark::State &state) {
 }
 BENCHMARK(BM_ExactStep)
     ->ArgNames({"system", "dt_1e-4", "skin_0.1", "threads"})
+    ->Args({kNematic, 10, 3, 1})
+    ->Args({kNematic, 10, 6, 1})
     ->Args({kNematic, 10, 10, 1})
     ->Args({kNematic, 20, 10, 1})
-    ->Args({kNematic, 10, 5, 1})
-    ->Args({kSpheres, 20, 5, 1})
-    ->Args({kSpheres, 30, 5, 1})
     ->Args({kSpheres, 20, 3, 1})
-    ->Args({kNematic, 10, 10, 2})
+    ->Args({kSpheres, 20, 5, 1})
+    ->Args({kSpheres, 20, 8, 1})
+    ->Args({kSpheres, 30, 5, 1})
+    ->Args({kNematic, 10, 6, 2})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 

@@ -185,6 +185,13 @@ TEST(SceneKeys, MethodIsMidpointOrExact) {
   EXPECT_EQ(parse_scene(kScene, {"run.method=exact"}).method, kExact);
   EXPECT_NE(scene_to_toml(parse_scene(kScene, {"run.method=exact"})).find("method = \"exact\""),
             std::string::npos);
+  // The skin's default follows the method; a skin given stays.
+  std::string no_skin = kScene;
+  no_skin.erase(no_skin.find("skin = 0.3\n"), 11);
+  EXPECT_EQ(parse_scene(no_skin).skin, 0.3);
+  EXPECT_EQ(parse_scene(no_skin, {"run.method=exact"}).skin, 0.8);
+  EXPECT_EQ(parse_scene(kScene, {"run.method=exact"}).skin, 0.3);
+  EXPECT_EQ(parse_scene(no_skin, {"run.method=exact", "run.skin=0.4"}).skin, 0.4);
   const auto problems = problems_of(kScene, {"run.method=leapfrog"});
   ASSERT_EQ(problems.size(), 1u) << lines(problems);
   EXPECT_EQ(problems[0], "run.method = \"leapfrog\": must be \"midpoint\" or \"exact\"")
