@@ -226,14 +226,15 @@ double grow_bounds(Particles &p, std::size_t count) {
   const long n = static_cast<long>(count);
   double *__restrict bound = p.motion_bound.data();
   const double *__restrict grow = p.grow.data();
-  double largest = 0.0;
-#pragma omp simd reduction(max : largest)
+  double largest = 0.0, sum = 0.0;
+#pragma omp simd reduction(max : largest) reduction(+ : sum)
   for (long i = 0; i < n; ++i) {
     const double b = (bound[i] + grow[i]) + grow[i];  // as drift's two halves add them
     bound[i] = b;
     largest = largest > b ? largest : b;
+    sum += b;  // a NaN, which the maximum would drop, stays in the sum
   }
-  return largest;
+  return std::isfinite(sum) ? largest : sum;
 }
 
 void fly_step(Particles &p, std::size_t count, const Shape &shape, double half_dt) {

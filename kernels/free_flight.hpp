@@ -58,7 +58,8 @@ double two_half_steps(Particles &p, std::size_t count, const Shape &shape, doubl
 // The exact method's step (kernels/exact_collisions.hpp) grows the motion bounds before it
 // moves the bodies, so that the detection at the step's start sees the whole step's flight:
 // grow_bounds adds two half steps' growth to bodies [0, count) (the same additions as
-// two_half_steps; returns the largest bound), and fly_step then moves them by the two half
+// two_half_steps; returns the largest bound, or NaN or infinity if any bound is not finite),
+// and fly_step then moves them by the two half
 // steps (positions and axes, the same bits as two_half_steps) leaving the bounds alone.
 // Both read the motion constants as they are (refresh_motion).
 double grow_bounds(Particles &p, std::size_t count);

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "kernels/rotor_constraints.hpp"
 #include "runtime/simulation.hpp"
@@ -58,9 +59,14 @@ void Simulation::exact_step() {
   tally_exact(detected, stats);
 }
 
+// A NaN or infinite velocity shows here first (the bounds grow by it): stop, never fly on.
 double Simulation::exact_bounds() {
   ScopedRegion r(timers_, Region::kIntegrate);
-  return grow_bounds(particles_, advanced());
+  const double largest = grow_bounds(particles_, advanced());
+  if (!std::isfinite(largest))
+    fail(fmt::format("step {}: a velocity is NaN or infinite (motion bound {}) at run.dt = {:g}",
+                     step_ + 1, largest, scene_.dt));
+  return largest;
 }
 
 // Phases 2 and 5. A body whose velocity changed may outrun the flight its bound was grown by;

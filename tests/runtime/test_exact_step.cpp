@@ -106,5 +106,19 @@ TEST(ExactStep, AFlightBeyondTheSkinIsRefusedByName) {
   }
 }
 
+// A NaN velocity stops the run at the next step, naming it, instead of flying on.
+TEST(ExactStep, ANaNVelocityStopsTheRun) {
+  Scene scene = exact(testing::hard_spheres(6, 0.3, 1e-3));
+  Simulation sim(scene);
+  sim.advance(5);
+  sim.particles().vx[7] = std::nan("");
+  try {
+    sim.advance(5);
+    FAIL() << "no error";
+  } catch (const PhysicsError &e) {
+    EXPECT_NE(std::string(e.what()).find("NaN"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace hardrod
