@@ -181,8 +181,8 @@ SafeStep safe_step(const GapBound &bound, double s_max) {
   double lo = 0.0, f_lo = bound.value(0.0);
   double hi = s_max, f_hi = bound.value(s_max);
   if (f_hi > 0.0) return {s_max, true};  // concave, positive at both ends: positive between
-  constexpr int kRounds = 6;
-  constexpr double kClose = 1e-3;  // stop once the root is bracketed to 0.1 %
+  constexpr int kRounds = 2;             // 2 to 6 rounds: the same evaluations; 2 the fastest
+  constexpr double kClose = 1e-3;        // stop once the root is bracketed to 0.1 %
   for (int round = 0; round < kRounds && hi - lo > kClose * hi; ++round) {
     const double q = bound.slope(hi);
     if (q < 0.0) {
@@ -231,42 +231,71 @@ Vec3 separating_normal(const SegmentClosest &c, const Vec3 &r, const Vec3 &ea, c
   return n0;
 }
 
-// The pair at time t: gap, its rate, and the bound of its later values along the normal.
+// The pair at time t: gap, its rate, and the bound of its later values along the fixed
+// normal; what the turning normal's bound needs, for when that one does not clear the step.
 struct PairState {
-  double gap = 0.0;    // |closest points| - D
-  double rate = 0.0;   // d gap / dt (< 0: approaching)
-  GapBound bounds[2];  // lower bounds of the later gap (margin 0): fixed and turning normal
-  int count = 1;
+  double gap = 0.0;        // |closest points| - D
+  double rate = 0.0;       // d gap / dt (< 0: approaching)
   double lipschitz = 0.0;  // |d gap / dt| <= this, always
+  GapBound fixed;          // margin 0
+  Vec3 n, r, ea, eb;
+  bool inner_a = false, inner_b = false;
 };
 
 PairState pair_state(const Flight &a, const Flight &b, double h, double D, double t) {
-  const Vec3 ea = a.axis(t), eb = b.axis(t);
-  const Vec3 r = b.position(t) - a.position(t);
-  const SegmentClosest c = segment_closest_inline(r, ea, h, eb, h);
-  const Vec3 n = separating_normal(c, r, ea, eb, h);
   PairState st;
+  st.ea = a.axis(t);
+  st.eb = b.axis(t);
+  st.r = b.position(t) - a.position(t);
+  const SegmentClosest c = segment_closest_inline(st.r, st.ea, h, st.eb, h);
+  st.n = separating_normal(c, st.r, st.ea, st.eb, h);
+  st.inner_a = std::abs(c.s) < h;
+  st.inner_b = std::abs(c.t) < h;
   st.gap = std::sqrt(c.dist2) - D;
   // Velocities of the closest material points; the parameters' own motion does not change the
   // distance to first order (they minimise it).
-  const Vec3 ua = a.v + cross(a.w, c.s * ea), ub = b.v + cross(b.w, c.t * eb);
-  st.rate = dot(n, ua - ub);
+  const Vec3 ua = a.v + cross(a.w, c.s * st.ea), ub = b.v + cross(b.w, c.t * st.eb);
+  st.rate = dot(st.n, ua - ub);
   st.lipschitz = norm(a.v - b.v) + h * (norm(a.w) + norm(b.w));
-  GapBound &fixed = st.bounds[0];
-  fixed.a = axis_bound(n, ea, a.w);
-  fixed.b = axis_bound(n, eb, b.w);
+  GapBound &fixed = st.fixed;
+  fixed.a = axis_bound(st.n, st.ea, a.w);
+  fixed.b = axis_bound(st.n, st.eb, b.w);
   fixed.h = h;
-  fixed.closing = dot(n, a.v - b.v);
+  fixed.closing = dot(st.n, a.v - b.v);
   // The separation along n itself, not the segment distance: a lower bound of the true gap
   // whatever the round-off of the closest points (equal to it in exact arithmetic).
-  fixed.g0 = -dot(n, r) - h * (std::abs(fixed.a.A) + std::abs(fixed.b.A)) - D;
-  st.count = 1;
-  Vec3 omega;
-  if (turning_rate(n, ea, a.w, std::abs(c.s) < h, eb, b.w, std::abs(c.t) < h, omega)) {
-    st.bounds[1] = turning_bound(n, omega, -r, a.v - b.v, ea, a.w, eb, b.w, h, fixed.g0);
-    st.count = 2;
-  }
+  fixed.g0 = -dot(st.n, st.r) - h * (std::abs(fixed.a.A) + std::abs(fixed.b.A)) - D;
   return st;
+}
+
+// A step the bounds prove contact-free from the pair state, gap + margin > 0 on it: the fixed
+// normal's test at s_max first (cheap; it clears most steps of pairs that do not meet), then
+// the turning normal's step where a closest point is interior, else the fixed normal's. (The
+// larger of both steps saves under 1 % of the evaluations for 15 % more time.)
+SafeStep contact_free_step(const PairState &st, const Flight &a, const Flight &b, double h,
+                           double margin, double s_max) {
+  GapBound fixed = st.fixed;
+  fixed.g0 += margin;
+  const bool fixed_ok = fixed.g0 > 0.0 && std::isfinite(fixed.slope(s_max));
+  if (fixed_ok && fixed.value(s_max) > 0.0) return {s_max, true};
+  SafeStep step;
+  Vec3 omega;
+  if (turning_rate(st.n, st.ea, a.w, st.inner_a, st.eb, b.w, st.inner_b, omega)) {
+    const GapBound turning =
+        turning_bound(st.n, omega, -st.r, a.v - b.v, st.ea, a.w, st.eb, b.w, h, fixed.g0);
+    if (turning.g0 > 0.0 && std::isfinite(turning.slope(s_max))) step = safe_step(turning, s_max);
+  }
+  if (!step.clear && fixed_ok && step.s <= 0.0) {
+    const SafeStep other = safe_step(fixed, s_max);
+    if (other.clear || other.s > step.s) step = other;
+  }
+  if (!step.clear && step.s <= 0.0) {
+    // Round-off left no bound positive (the gap along n below the margin where the segment
+    // distance is barely above it): the plain bound gap(t + s) >= gap(t) - lipschitz s.
+    step.s = (st.gap + margin) / st.lipschitz;
+    step.clear = !(step.s < s_max);
+  }
+  return step;
 }
 
 ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
@@ -282,7 +311,8 @@ ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, do
     }
     PairState st = pair_state(a, b, h, D, t);
     ++out.iterations;
-    if (!std::isfinite(st.gap) || !std::isfinite(st.rate) || !std::isfinite(st.lipschitz)) {
+    if (!std::isfinite(st.gap) || !std::isfinite(st.rate) || !std::isfinite(st.lipschitz) ||
+        !std::isfinite(st.fixed.g0)) {
       out.converged = false;
       out.t = t;
       return out;
@@ -303,20 +333,7 @@ ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, do
     }
     // The separation along n can come out below the margin by round-off where the gap is
     // barely above it: then the plain bound gap(t + s) >= gap(t) - lipschitz s.
-    SafeStep step;
-    step.s = 0.0;
-    for (int k = 0; k < st.count; ++k) {
-      GapBound &bound = st.bounds[k];
-      bound.g0 += margin;
-      if (!(bound.g0 > 0.0) || !std::isfinite(bound.slope(t_to - t))) continue;
-      const SafeStep candidate = safe_step(bound, t_to - t);
-      if (candidate.clear || candidate.s > step.s) step = candidate;
-      if (step.clear) break;
-    }
-    if (step.s <= 0.0) {
-      step.s = (st.gap + margin) / st.lipschitz;
-      step.clear = !(step.s < t_to - t);
-    }
+    const SafeStep step = contact_free_step(st, a, b, h, margin, t_to - t);
     if (step.clear) {
       out.t = t_to;
       return out;
