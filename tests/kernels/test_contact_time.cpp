@@ -129,6 +129,17 @@ void random_pair(std::mt19937_64 &rng, double h, double sigma_w, double gap_lo, 
 struct Tally {
   long searches = 0, found = 0, iterations = 0, max_iterations = 0, unconverged = 0;
   long found_iterations = 0, found_max_iterations = 0;  // of the searches that find a contact
+  void add(const ContactTime &ct) {
+    ++searches;
+    found += ct.found;
+    iterations += ct.iterations;
+    max_iterations = std::max<long>(max_iterations, ct.iterations);
+    unconverged += !ct.converged;
+    if (ct.found) {
+      found_iterations += ct.iterations;
+      found_max_iterations = std::max<long>(found_max_iterations, ct.iterations);
+    }
+  }
 };
 
 // One random pair against the reference; returns the number of failures (reported).
@@ -136,15 +147,7 @@ int check_pair(const Flight &a, const Flight &b, double h, double t0, double dt,
   const ContactTimeSettings settings;
   const ContactTime ct = first_contact(a, b, h, kD, t0, t0 + dt, settings);
   const Reference ref = reference(a, b, h, t0, t0 + dt, 4000);
-  ++tally.searches;
-  tally.found += ct.found;
-  tally.iterations += ct.iterations;
-  tally.max_iterations = std::max<long>(tally.max_iterations, ct.iterations);
-  tally.unconverged += !ct.converged;
-  if (ct.found) {
-    tally.found_iterations += ct.iterations;
-    tally.found_max_iterations = std::max<long>(tally.found_max_iterations, ct.iterations);
-  }
+  tally.add(ct);
   const double slack = 1e-15 * std::max(1.0, std::abs(t0 + dt));
   int failures = 0;
   auto fail = [&](const char *what) {
@@ -201,6 +204,88 @@ TEST(FirstContact, RandomNeedlesNeverLateNorEarly) {
 
 TEST(FirstContact, RandomSpheresNeverLateNorEarly) {
   random_suite("spheres", 0.0, 0.0, 20261127, 2000);
+}
+
+// The pair from the contact time t_c on after a frictionless elastic collision there (unit
+// masses, moment of inertia h^2/3 across the axis, spheres h^2/3 = 0: no rotation): the normal
+// relative velocity of the contact points reversed. Returns false if the pair was not closing.
+bool bounce(Flight &a, Flight &b, double h, double t_c) {
+  a = {a.position(t_c), a.axis(t_c), a.v, a.w, t_c};
+  b = {b.position(t_c), b.axis(t_c), b.v, b.w, t_c};
+  const SegmentClosest c = segment_closest(b.x - a.x, a.e, h, b.e, h);
+  const Vec3 n = (1.0 / std::sqrt(c.dist2)) * c.gap;  // from b to a
+  const Vec3 ra = c.s * a.e, rb = c.t * b.e;
+  const double un = dot(n, a.v + cross(a.w, ra) - b.v - cross(b.w, rb));
+  if (!(un < 0.0)) return false;
+  const double inertia = h * h / 3.0;
+  const Vec3 ta = cross(ra, n), tb = cross(rb, n);
+  const double k = 2.0 + (h > 0.0 ? (norm2(ta) + norm2(tb)) / inertia : 0.0);
+  const double j = -2.0 * un / k;
+  a.v += j * n;
+  b.v -= j * n;
+  if (h > 0.0) {
+    a.w += (j / inertia) * ta;
+    b.w -= (j / inertia) * tb;
+  }
+  return true;
+}
+
+// Touch-and-separate starts: random collisions found by the kernel, then an elastic bounce
+// there (as the event processing will do), and the search again from the contact. The touch at
+// the start is never reported; the search never passes an overlap deeper than the tolerance
+// (the reference's threshold here) and a contact it finds has gap in [-tolerance, tolerance].
+void departure_suite(const char *name, double h, double sigma_w, std::uint64_t seed, int pairs) {
+  std::mt19937_64 rng(seed);
+  const double t0 = 0.37, dt = 1e-2, after = 0.5, depth = -1.01 * kTol;
+  Tally tally;
+  int failures = 0;
+  while (tally.searches < pairs && failures < 5) {
+    Flight a, b;
+    random_pair(rng, h, sigma_w, 1e-9, 0.05, t0, a, b);
+    const ContactTime hit = first_contact(a, b, h, kD, t0, t0 + dt, {});
+    Flight ra = a, rb = b;
+    if (!hit.found || !bounce(ra, rb, h, hit.t)) continue;
+    const ContactTime ct = first_contact(ra, rb, h, kD, hit.t, hit.t + after, {});
+    tally.add(ct);
+    // The first sample below -tolerance, then bisection: the search must be no later.
+    const int samples = 20000;
+    double prev = hit.t, t_hi = hit.t + after + 1.0;
+    for (int i = 1; i <= samples; ++i) {
+      const double t = hit.t + after * i / samples;
+      if (gap_at(ra, rb, h, t) < depth) {
+        double lo = prev, hi = t;
+        for (int k = 0; k < 200 && hi - lo > 1e-16; ++k) {
+          const double mid = 0.5 * (lo + hi);
+          (gap_at(ra, rb, h, mid) < depth ? hi : lo) = mid;
+        }
+        t_hi = hi;
+        break;
+      }
+      prev = t;
+    }
+    const double g = gap_at(ra, rb, h, ct.t);
+    const bool bad = !ct.converged || ct.t > t_hi + 1e-15 || (t_hi <= hit.t + after && !ct.found) ||
+                     (ct.found && (ct.t <= hit.t || g < depth || g > kTol));
+    if (bad) {
+      ADD_FAILURE() << name << ": start " << hit.t << " t=" << ct.t << " found=" << ct.found
+                    << " converged=" << ct.converged << " gap=" << g << " t_hi=" << t_hi
+                    << "\n a: " << describe(ra) << "\n b: " << describe(rb);
+      ++failures;
+    }
+  }
+  print_tally(name, tally);
+}
+
+TEST(FirstContact, RandomTouchAndSeparateStartsRods) {
+  departure_suite("after a collision, L/D 5", 2.5, 0.7, 20261128, 500);
+}
+
+TEST(FirstContact, RandomTouchAndSeparateStartsNeedles) {
+  departure_suite("after a collision, L/D 1000", 500.0, 0.0035, 20261129, 50);
+}
+
+TEST(FirstContact, RandomTouchAndSeparateStartsSpheres) {
+  departure_suite("after a collision, spheres", 0.0, 0.0, 20261130, 500);
 }
 
 // Flight::axis: unit to 1e-14 and the rotation by |w| (t - t0) about w (Eigen's angle-axis),
