@@ -139,33 +139,28 @@ GapBound turning_bound(const Vec3 &n, const Vec3 &omega, const Vec3 &dx, const V
   return out;
 }
 
-// The least-norm omega with omega . m_k = w_k . m_k (m_k = e_k x n) for the interior bodies;
-// both: a 2x2 Gram system, solved only while the axes are clearly apart in angle (else omega
-// would grow as 1 / angle and its remainders spoil the bound; then the faster one alone).
-bool turning_rate(const Vec3 &n, const Vec3 &ea, const Vec3 &wa, bool inner_a, const Vec3 &eb,
-                  const Vec3 &wb, bool inner_b, Vec3 &omega) {
+// Least-norm rates omega with omega . m_k = w_k . m_k (m_k = e_k x n) for the interior bodies:
+// both, a 2x2 Gram system; where the axes are nearly parallel that omega grows as 1 / angle,
+// and its remainders limit the step far from contact (not near it, where the step is short),
+// so then also the omega for the faster-turning axis alone. Returns how many (0 to 2).
+int turning_rates(const Vec3 &n, const Vec3 &ea, const Vec3 &wa, bool inner_a, const Vec3 &eb,
+                  const Vec3 &wb, bool inner_b, Vec3 omega[2]) {
   const Vec3 ma = cross(ea, n), mb = cross(eb, n);
   const double ga = norm2(ma), gb = norm2(mb), gab = dot(ma, mb);
   const double ra = dot(wa, ma), rb = dot(wb, mb);
+  int count = 0;
   if (inner_a && inner_b) {
     const double det = ga * gb - gab * gab;
-    if (det > 1e-2 * ga * gb) {  // axes more than ~6 degrees apart
+    if (det > 1e-12 * ga * gb) {
       const double alpha = (gb * ra - gab * rb) / det, beta = (ga * rb - gab * ra) / det;
-      omega = alpha * ma + beta * mb;
-      return true;
+      omega[count++] = alpha * ma + beta * mb;
     }
-    // Nearly parallel: square to the axis that turns faster across n only.
+    if (det > 1e-2 * ga * gb) return count;  // axes more than ~6 degrees apart
     (std::abs(ra) >= std::abs(rb) ? inner_b : inner_a) = false;
   }
-  if (inner_a && ga > 0.5) {
-    omega = (ra / ga) * ma;
-    return true;
-  }
-  if (inner_b && gb > 0.5) {
-    omega = (rb / gb) * mb;
-    return true;
-  }
-  return false;
+  if (inner_a && ga > 0.5) omega[count++] = (ra / ga) * ma;
+  if (inner_b && gb > 0.5) omega[count++] = (rb / gb) * mb;
+  return count;
 }
 
 // A step s in [0, s_max] with bound > 0 on [0, s) (bound.value(0) > 0): s_max if the bound
@@ -279,11 +274,14 @@ SafeStep contact_free_step(const PairState &st, const Flight &a, const Flight &b
   const bool fixed_ok = fixed.g0 > 0.0 && std::isfinite(fixed.slope(s_max));
   if (fixed_ok && fixed.value(s_max) > 0.0) return {s_max, true};
   SafeStep step;
-  Vec3 omega;
-  if (turning_rate(st.n, st.ea, a.w, st.inner_a, st.eb, b.w, st.inner_b, omega)) {
+  Vec3 omega[2];
+  const int rates = turning_rates(st.n, st.ea, a.w, st.inner_a, st.eb, b.w, st.inner_b, omega);
+  for (int k = 0; k < rates && !step.clear; ++k) {
     const GapBound turning =
-        turning_bound(st.n, omega, -st.r, a.v - b.v, st.ea, a.w, st.eb, b.w, h, fixed.g0);
-    if (turning.g0 > 0.0 && std::isfinite(turning.slope(s_max))) step = safe_step(turning, s_max);
+        turning_bound(st.n, omega[k], -st.r, a.v - b.v, st.ea, a.w, st.eb, b.w, h, fixed.g0);
+    if (!(turning.g0 > 0.0) || !std::isfinite(turning.slope(s_max))) continue;
+    const SafeStep candidate = safe_step(turning, s_max);
+    if (candidate.clear || candidate.s > step.s) step = candidate;
   }
   if (!step.clear && fixed_ok && step.s <= 0.0) {
     const SafeStep other = safe_step(fixed, s_max);
