@@ -4,6 +4,8 @@
 // a); the separation of the two capsules along this fixed n is a lower bound of their gap at
 // every later time, and its Taylor model L(s) (below) is concave in s >= 0, so its
 // first root is a step the pair cannot touch within. Each step costs one segment distance.
+// Along a fixed n the slope of L is too steep where a closest point is interior (see
+// turning_bound); there the same separation along a turning n(s) gives the true slope.
 //
 // The bound, for s >= 0 (a = |w| s the angle turned; A = n.e, B = n.(w^ x e), P = (n.w^)(w^.e)):
 //   n.e(s) = A cos a + B sin a + P (1 - cos a) = A + B a + (P - A)(1 - cos a) - B (a - sin a),
@@ -329,8 +331,6 @@ ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, do
       out.t = t_to;
       return out;
     }
-    // The separation along n can come out below the margin by round-off where the gap is
-    // barely above it: then the plain bound gap(t + s) >= gap(t) - lipschitz s.
     const SafeStep step = contact_free_step(st, a, b, h, margin, t_to - t);
     if (step.clear) {
       out.t = t_to;

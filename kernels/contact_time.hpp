@@ -53,15 +53,19 @@ struct ContactTime {
 //   steps on with the gap proven above -tolerance (not above 0) until the pair parts, so the
 //   worst overlap it can pass without reporting is the tolerance itself; a contact found while
 //   still touching can have a gap down to -tolerance. (Steps grow geometrically as the gap
-//   opens: a few evaluations after an elastic collision.)
+//   opens: 1.05 evaluations on average to clear the rest of a 1e-2 step after an elastic
+//   collision.)
 // - else a step that the bound proves contact-free (gap > 0 on it).
 // Spheres use the closed form under the same rules: touching and not approaching is never a
 // contact (their distance is convex in time), and the contact is where the gap is tolerance/2,
 // so that its round-off keeps it in (0, tolerance]; iterations = 1.
 // Rods: a found contact has gap in [-1e-12, tolerance] away from the touching start (round-off
-// of the segment distance at L/D = 1000 included); converged = false only when max_iterations
-// evaluations did not reach a contact or t_to (not seen in 2500 random realistic collisions, at
-// most 21 evaluations there); non-finite input: converged = false at once, t = t_from.
+// of the segment distance at L/D = 1000 included). Evaluations (tests/kernels/
+// test_contact_time.cpp, random nematic collisions, gap 0 .. 0.05 D at the start, dt 1e-3 ..
+// 3e-2): L/D 5 mean 4.5, max 9 per search that finds a contact, 1.5 over all searches; L/D 1000
+// mean 3.2, max 4. converged = false only when max_iterations evaluations reached neither a
+// contact nor t_to (never in those tests); non-finite input: converged = false at once,
+// t = t_from.
 ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
                           double t_to, const ContactTimeSettings &settings);
 
