@@ -336,7 +336,15 @@ ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, do
       out.t = t_to;
       return out;
     }
-    t += step.s;
+    // t + s rounded down, so that rounding never carries the search past the proven step.
+    double next = t + step.s;
+    if (next - t > step.s) next = std::nextafter(next, t);
+    if (!(next > t)) {  // the step is below the resolution of t: no progress possible
+      out.converged = false;
+      out.t = t;
+      return out;
+    }
+    t = next;
   }
 }
 

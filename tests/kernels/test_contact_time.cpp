@@ -121,6 +121,17 @@ void random_pair(std::mt19937_64 &rng, double h, double sigma_w, double gap_lo, 
     a.x = {};
     b.x = {reach_xy * u(rng), reach_xy * u(rng), reach_z * u(rng)};
     a.t0 = b.t0 = t0;
+    if (h > 10.0) {
+      // Needles: pulled along the normal to a gap drawn in range, twice (the closest points
+      // can move), since few random centres land in range: rejection alone takes seconds.
+      const double target = gap_lo + 0.5 * (u(rng) + 1.0) * (gap_hi - gap_lo);
+      for (int k = 0; k < 2; ++k) {
+        const SegmentClosest c = segment_closest(b.x - a.x, a.e, h, b.e, h);
+        const double d = std::sqrt(c.dist2);
+        if (!(d > 0.0)) break;
+        b.x += ((d - kD - target) / d) * c.gap;
+      }
+    }
     const double g = gap_at(a, b, h, t0);
     if (g >= gap_lo && g <= gap_hi) return;
   }
@@ -199,7 +210,7 @@ TEST(FirstContact, RandomNematicRodsNeverLateNorEarly) {
 }
 
 TEST(FirstContact, RandomNeedlesNeverLateNorEarly) {
-  random_suite("L/D 1000", 500.0, 0.0035, 20261126, 500);
+  random_suite("L/D 1000", 500.0, 0.0035, 20261126, 2000);
 }
 
 TEST(FirstContact, RandomSpheresNeverLateNorEarly) {
@@ -281,7 +292,7 @@ TEST(FirstContact, RandomTouchAndSeparateStartsRods) {
 }
 
 TEST(FirstContact, RandomTouchAndSeparateStartsNeedles) {
-  departure_suite("after a collision, L/D 1000", 500.0, 0.0035, 20261129, 50);
+  departure_suite("after a collision, L/D 1000", 500.0, 0.0035, 20261129, 500);
 }
 
 TEST(FirstContact, RandomTouchAndSeparateStartsSpheres) {
@@ -482,6 +493,29 @@ TEST(FirstContact, IterationBudgetGivesALowerBound) {
   EXPECT_EQ(ct.iterations, 3);
   EXPECT_LT(ct.t, s.first_touch());
   EXPECT_GT(gap_at(s.a, s.b, s.h, ct.t), kTol);
+}
+
+// Absolute times far from 0 (t = 1e8 tau, an ulp 1.5e-8): steps are rounded down, so the
+// search never lands past the contact, and it stops as soon as a step falls below an ulp of t
+// (converged = false, t a lower bound) instead of spending its whole budget in place.
+TEST(FirstContact, LargeAbsoluteTimesStopAtTheResolutionOfT) {
+  const double t0 = 1e8;
+  for (double sign : {1.0, -1.0}) {
+    Flight a, b;
+    a.e = {0, 0, 1};
+    b.e = {0, 0, sign};
+    b.x = {kD + 0.03, 0, 1.0};
+    b.v = {-1.5, 0, 0.2};
+    b.w = {0.0, 0.3, 0.0};
+    a.t0 = b.t0 = t0;
+    const ContactTime ct = first_contact(a, b, 2.5, kD, t0, t0 + 1.0, {});
+    EXPECT_LE(ct.iterations, 20);
+    EXPECT_GE(gap_at(a, b, 2.5, ct.t), kOverlap);
+    if (!ct.converged) {
+      EXPECT_GT(gap_at(a, b, 2.5, ct.t), 0.0);
+    }
+    EXPECT_LE(ct.t, t0 + 0.03 / 1.5 + 1e-7);
+  }
 }
 
 // Never NaN, never stuck, for finite input at the extremes: huge distances and speeds,
