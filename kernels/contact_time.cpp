@@ -231,10 +231,9 @@ Vec3 separating_normal(const SegmentClosest &c, const Vec3 &r, const Vec3 &ea, c
 // The pair at time t: gap, its rate, and the bound of its later values along the fixed
 // normal; what the turning normal's bound needs, for when that one does not clear the step.
 struct PairState {
-  double gap = 0.0;        // |closest points| - D
-  double rate = 0.0;       // d gap / dt (< 0: approaching)
-  double lipschitz = 0.0;  // |d gap / dt| <= this, always
-  GapBound fixed;          // margin 0
+  double gap = 0.0;   // |closest points| - D
+  double rate = 0.0;  // d gap / dt (< 0: approaching)
+  GapBound fixed;     // margin 0
   Vec3 n, r, ea, eb;
   bool inner_a = false, inner_b = false;
 };
@@ -253,7 +252,6 @@ PairState pair_state(const Flight &a, const Flight &b, double h, double D, doubl
   // distance to first order (they minimise it).
   const Vec3 ua = a.v + cross(a.w, c.s * st.ea), ub = b.v + cross(b.w, c.t * st.eb);
   st.rate = dot(st.n, ua - ub);
-  st.lipschitz = norm(a.v - b.v) + h * (norm(a.w) + norm(b.w));
   GapBound &fixed = st.fixed;
   fixed.a = axis_bound(st.n, st.ea, a.w);
   fixed.b = axis_bound(st.n, st.eb, b.w);
@@ -292,7 +290,8 @@ SafeStep contact_free_step(const PairState &st, const Flight &a, const Flight &b
   if (!step.clear && step.s <= 0.0) {
     // Round-off left no bound positive (the gap along n below the margin where the segment
     // distance is barely above it): the plain bound gap(t + s) >= gap(t) - lipschitz s.
-    step.s = (st.gap + margin) / st.lipschitz;
+    const double lipschitz = norm(a.v - b.v) + h * (norm(a.w) + norm(b.w));  // |d gap / dt|
+    step.s = (st.gap + margin) / lipschitz;
     step.clear = !(step.s < s_max);
   }
   return step;
@@ -311,8 +310,8 @@ ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, do
     }
     PairState st = pair_state(a, b, h, D, t);
     ++out.iterations;
-    if (!std::isfinite(st.gap) || !std::isfinite(st.rate) || !std::isfinite(st.lipschitz) ||
-        !std::isfinite(st.fixed.g0)) {
+    if (!std::isfinite(st.gap) || !std::isfinite(st.rate) || !std::isfinite(st.fixed.g0) ||
+        !std::isfinite(st.fixed.closing)) {
       out.converged = false;
       out.t = t;
       return out;
