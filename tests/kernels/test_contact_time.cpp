@@ -404,6 +404,29 @@ TEST(FirstContact, ParallelAndAntiParallelTranslation) {
   }
 }
 
+// Crossed axes: b (along y, 0.1 D aside) comes down at speed 1 onto a (along x), which tilts
+// about y at omega = 2, so its ends swing up and down at h omega = 5 while its middle, under b,
+// hardly moves. The line-line distance 0.1 sin(2t) + (1.05 - t) cos(2t) is the gap + D (closest
+// points inside both axes). Along a fixed normal the slope bound is -6 against the true -1.2
+// (111 evaluations to 1e-10); the turning normal's is exact: 8.
+TEST(FirstContact, CrossedTiltingAxesConvergeFast) {
+  Flight a, b;
+  a.e = {1, 0, 0};
+  a.w = {0, 2.0, 0};
+  b.e = {0, 1, 0};
+  b.x = {0.1, -0.2, kD + 0.05};
+  b.v = {0, 0, -1.0};
+  auto line_gap = [](double t) { return 0.1 * std::sin(2 * t) + (1.05 - t) * std::cos(2 * t) - 1; };
+  double lo = 0.0, hi = 0.1;  // line_gap(lo) > 0 > line_gap(hi)
+  ASSERT_LT(line_gap(hi), 0.0);
+  for (int k = 0; k < 100; ++k) (line_gap(0.5 * (lo + hi)) > 0.0 ? lo : hi) = 0.5 * (lo + hi);
+  const ContactTime ct = first_contact(a, b, 2.5, kD, 0.0, 0.1, {});
+  ASSERT_TRUE(ct.found);
+  EXPECT_LE(ct.t, hi + 1e-15);
+  EXPECT_GE(ct.t, lo - 2 * kTol);
+  EXPECT_LE(ct.iterations, 10);  // 8 (111 along the fixed normal alone)
+}
+
 // Crossing axes (d = 0) and any deep overlap at t_from: found at t_from, whatever the motion.
 TEST(FirstContact, OverlapAtStartIsFoundAtStart) {
   Flight a, b;
