@@ -114,7 +114,9 @@ struct GapBound {
 // the gap's true rate. (With n fixed, a rod's turning brings its far end towards the other
 // body's plane at h |w|, however far aside that end is: the bound's slope is then several
 // times the true rate and the advancement only linear.) Remainders, with d'' bounds:
-//   n(s).e(s) = A + s n.((w - omega) x e) + R,   |R| <= (|omega| + |w|)^2 s^2 / 2,
+//   n(s).e(s) = n.E(s), E(s) = R(omega s)^T R(w s) e, E'' = R(omega s)^T ((w - omega) x (w x e(s))
+//   - omega x ((w - omega) x e(s))): n(s).e(s) = A + s n.((w - omega) x e) + R with
+//   |R| <= |w - omega| (|w| + |omega|) s^2 / 2,
 //   n(s).(dx + s dv) = n.dx + s (n.dv + (omega x n).dx) + R_x,
 //   |R_x| <= s^2 (|omega|^2 |dx| + 2 |omega| |dv|) / 2 + s^3 |omega|^2 |dv| / 6
 // (dx = x_a - x_b, dv = v_a - v_b).
@@ -132,8 +134,7 @@ GapBound turning_bound(const Vec3 &n, const Vec3 &omega, const Vec3 &dx, const V
     AxisBound b;
     b.A = dot(n, e);
     b.C = dot(n, cross(w - omega, e));
-    const double r = om + norm(w);
-    b.K2 = 0.5 * r * r;
+    b.K2 = 0.5 * norm(w - omega) * (norm(w) + om);
     return b;
   };
   out.a = axis(ea, wa);
