@@ -3,8 +3,11 @@
 // (an upper bound of the first contact: the kernel must never be later), and the grid's
 // Lipschitz bound |dg/dt| <= |v_a - v_b| + h (|w_a| + |w_b|) for a stretch proven contact-free
 // (the kernel must never be earlier). Random realistic collisions (nematic rods L/D = 5 at
-// |v| ~ 1.7, |w| ~ 1; needles L/D = 1000; spheres) with fixed seeds, then the extremes one by
-// one with analytic contact times. Serial; each test owns its generator.
+// |v| ~ 1.7, |w| ~ 1; needles L/D = 1000; spheres) with fixed seeds, the same after an elastic
+// bounce at the contact (the touch-and-separate start), then the extremes one by one with
+// analytic contact times (rotation alone, crossed tilting axes, parallel, overlapping, far,
+// still, t = 1e8). The [ contact ] lines print the evaluations per search. Serial; each test
+// owns its generator.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
