@@ -382,7 +382,8 @@ def analyse(rows, args):
         for method in dict.fromkeys(r["method"] for r in srows):
             dt_rec, text = recommend(srows, fit_p, tol_rel, method)
             by_method[method] = {"recommended_dt": dt_rec, "recommendation": text}
-        cheaper = cheaper_at_target(by_method, srows, args.target)
+        cheaper = (cheaper_at_target(by_method, srows, args.target) if fit_p else
+                   {"method": None, "ratio": None, "text": "no dt -> 0 fit to measure the biases against"})
         label = info["label"] + (" (equilibrated start)" if scene == "nematic" and args.start else
                                  " (lattice start)" if scene == "nematic" else "")
         analysis[scene] = {"label": label, "fit_pressure_star": fit_p, "fit_order_parameter": fit_s,

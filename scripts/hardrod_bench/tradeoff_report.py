@@ -113,6 +113,13 @@ def caveats(args, rows, analysis):
              "block-averaged standard errors; the bias error combines the point's error with the extrapolation's. "
              "The dt -> 0 value is a fit of the midpoint sweep only; the exact method's points are measured against "
              "it, not fitted. Cost = wall x threads / (simulated time x N), equilibration included.")
+    if any(r["method"] == "exact" for r in rows):
+        # Why the exact points are not a dt trend: one dynamics, sampled again and again.
+        text += (" The exact method's dynamics do not depend on dt (every collision at its exact time; only "
+                 "round-off and the thermostat's rescaling differ), so its points at different dt start as the same "
+                 "trajectory and part within a few tau only through round-off's chaotic growth: they are repeated "
+                 "samples of one dynamics, and any spread among them beyond their error bars is sampling noise the "
+                 "block errors missed, not a dt effect.")
     busy = busy_warning([r["load_average_1min"] for r in rows])
     return text + (" " + busy if busy else "")
 

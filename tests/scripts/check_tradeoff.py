@@ -11,7 +11,8 @@
    the method column of tradeoff.csv, the dt -> 0 value fitted from the midpoint sweep only,
    the recommended dt per method, the exact method's consistency (in sd) and the cheaper method
    at the target, the exact method's work in the report, and the Pareto plot's series: both
-   methods for both scenes, the tolerance points midpoint-only, and pareto.png written.
+   methods for both scenes, the tolerance points midpoint-only, and pareto.png written; and
+   with --methods exact alone (no midpoint sweep to fit), no recommendation, saying why.
 """
 
 import contextlib
@@ -174,6 +175,23 @@ def analysis(tmp):
           "tradeoff.md: the recommendation per method and the cheaper one")
     check("run.skin = 1 D" in md and "run.skin = 0.5 D" in md, "tradeoff.md: the exact method's skin stated")
     plot(report["points"], a, out)
+    exact_only(tmp, fake)
+
+
+def exact_only(tmp, fake):
+    """--methods exact alone: no dt -> 0 fit, so no recommendation, said so; the references still."""
+    status, text = run_cli(["tradeoff", "--quick", "--start", START, "--jobs", "1", "--methods", "exact",
+                            "--reuse", str(fake), "--results", str(tmp / "exact-only")])
+    out = next((tmp / "exact-only").glob("tradeoff-*"))
+    a = json.loads((out / "tradeoff.json").read_text())["analysis"]
+    check(status == 0 and set(a["nematic"]["methods"]) == {"exact"}
+          and a["nematic"]["methods"]["exact"]["recommended_dt"] is None
+          and a["nematic"]["cheaper_at_target"]["text"] == "no dt -> 0 fit to measure the biases against",
+          "--methods exact alone: no fit, no recommendation, and the report says why")
+    with open(out / "tradeoff.csv") as f:
+        rows = list(csv.DictReader(f))
+    check(len(rows) == 6 and all(r["method"] == "exact" and abs(float(r["p_bias_ref_rel"])) <= 0.0101 for r in rows),
+          "--methods exact alone: six exact rows, each with its bias against the reference")
 
 
 def plot(rows, analysis, out):
