@@ -13,7 +13,7 @@ USAGE = """hardrod benchmark harness: kernels, physics validation, speed/accurac
 
   scripts/bench kernels   [--filter RE] [--repetitions R] [--min-time S]
   scripts/bench validate  [--long | --strict] [--jobs J] [--threads T]
-  scripts/bench tradeoff  [--quick | --long] [--jobs J] [--threads T]
+  scripts/bench tradeoff  [--quick | --long] [--methods midpoint,exact] [--jobs J] [--threads T]
   scripts/bench scaling   [--steps S] [--repeat R] [--threads-list 1,2]
   scripts/bench traffic   [--ranks-list 1,2,4,...]
   scripts/bench balance   [--ranks R] [--repeat R]   (load balancing on an uneven gas)

@@ -1,99 +1,173 @@
-"""`scripts/bench tradeoff`: speed against accuracy over the time step and the solver tolerance.
+"""`scripts/bench tradeoff`: speed against accuracy over the time step, the collision method and
+the solver tolerance.
 
-Sweeps dt (and the solver tolerance at the largest dt) on hard spheres and the L/D = 5
-nematic at equal simulated time, extrapolates P* (and S) to dt -> 0 with a weighted linear
-fit, and recommends the largest dt within the target; writes tradeoff.csv, tradeoff.json,
-tradeoff.md and the Pareto plot (tradeoff_plot.py).
+Sweeps dt for each collision method (run.method = "midpoint", the paper's, and "exact", the
+collisions at their exact times within the step; each method with its own dt list and the
+exact method with its own neighbour-list skin) and the solver tolerance at the midpoint
+method's largest dt, on hard spheres and the L/D = 5 nematic at equal simulated time. P* (and
+S) are extrapolated to dt -> 0 by a weighted linear fit of the midpoint sweep; every point's
+bias is measured against that value and the reference. Recommends the largest dt within the
+target per method and the cheaper method there. The runs and the analysis are here; the
+report files are tradeoff_report.py, the Pareto plot tradeoff_plot.py.
 """
 
-import datetime
 import math
 import sys
 
-from .common import (HARDROD, NPROC, busy_warning, common_arguments, ensure_built, finite, g, invocation,
-                     machine_info, make_outdir, markdown_table, parse_list, pm, relpath, report_header, write_csv,
-                     write_json, write_text)
+from .common import (HARDROD, NPROC, common_arguments, ensure_built, finite, g, make_outdir, parse_list, pm,
+                     relpath)
 from .outputs import est
 from .references import HS_ETA, NEMATIC_P_REF, NEMATIC_S_REF, carnahan_starling
 from .runner import Run, file_start, print_dry_run, run_all
 from .stats import linear_fit, normal_cdf
-from .tradeoff_plot import plot_pareto
+from .tradeoff_report import write_report
 
-HELP = "dt and solver-tolerance sweep: cost against bias, Pareto plot, recommended dt"
-DESCRIPTION = ("Sweep dt (2e-6 ... 1e-3) on hard spheres at eta = 0.45 and the L/D = 5 nematic "
-               "(lattice start, equal simulated time at every dt), and the solver tolerance at "
-               "the largest dt. Writes tradeoff.csv, tradeoff.json, tradeoff.md, pareto.png; "
-               "prints the largest dt keeping P* within the target of the dt -> 0 value.")
+HELP = "dt, method and solver-tolerance sweep: cost against bias, Pareto plot, recommended dt per method"
+DESCRIPTION = ("Sweep dt on hard spheres at eta = 0.45 and the L/D = 5 nematic for each collision method "
+               "(midpoint: 2e-6 ... 1e-3; exact: 5e-4 ... 4e-3 for spheres, 3e-3 for rods, with its own skin), at equal simulated time "
+               "at every dt, and the solver tolerance at the midpoint method's largest dt. Writes "
+               "tradeoff.csv, tradeoff.json, tradeoff.md, pareto.png; prints the largest dt keeping P* "
+               "within the target of the dt -> 0 value for each method, and the cheaper method there.")
+
+METHODS = ("midpoint", "exact")
 
 
 def add_arguments(t):
     common_arguments(t)
     mode = t.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", help="no 2e-6 point, short runs: under ~5 minutes on 2 cores")
+    mode.add_argument("--quick", action="store_true", help="no 2e-6 point, short runs: under ~10 minutes on 2 cores")
     mode.add_argument("--long", action="store_true", help="long runs incl. dt = 2e-6 (hours): nematic 100 + 50 tau")
-    t.add_argument("--dts", default="", help="comma list of dt (overrides the preset)")
-    t.add_argument("--tolerances", default="1e-4,1e-8,1e-12", help="solver tolerances at the largest dt")
+    t.add_argument("--methods", default="midpoint,exact",
+                   help="comma list of collision methods (run.method): midpoint, exact (default: both)")
+    t.add_argument("--dts", default="", help="comma list of dt for the midpoint method (overrides the preset)")
+    t.add_argument("--exact-dts", default="", help="comma list of dt for the exact method, every scene (overrides the preset's per-scene lists)")
+    t.add_argument("--exact-skin", type=float, default=None, metavar="D",
+                   help="run.skin of the exact method's runs, in D (default: 0.5 for spheres, 1.0 for rods; "
+                        "the midpoint runs keep the scene's)")
+    t.add_argument("--tolerances", default="1e-4,1e-8,1e-12",
+                   help="solver tolerances at the midpoint method's largest dt")
     t.add_argument("--scenes", default="hard-spheres,nematic", help="comma list: hard-spheres, nematic")
     t.add_argument("--equil-tau", type=float, default=None, help="equilibration time, tau (overrides the preset)")
     t.add_argument("--prod-tau", type=float, default=None, help="production time, tau (overrides the preset)")
-    t.add_argument("--fit-max-dt", type=float, default=1e-4, help="largest dt in the linear dt -> 0 fit (default 1e-4)")
+    t.add_argument("--fit-max-dt", type=float, default=1e-4,
+                   help="largest midpoint dt in the linear dt -> 0 fit (default 1e-4)")
     t.add_argument("--target", type=float, default=0.5, help="P* tolerance in %% for the recommendation (default 0.5)")
     t.add_argument("--start", default="", metavar="H5MD",
                    help="start the nematic runs from the last frame of this trajectory (an equilibrated run's "
                         "trajectory.h5) instead of the lattice, so a short --equil-tau suffices")
 
 
+# The exact method's dt lists are per scene: its clusters percolate on the rods at dt = 4e-3
+# (events per step by the hundred thousand, the event cap's fallbacks: bench/tradeoff/README.md),
+# on hard spheres at eta = 0.45 only at 8e-3.
+EXACT_DTS = {"quick": {"hard-spheres": [1e-3, 2e-3, 4e-3], "nematic": [1e-3, 2e-3, 3e-3]},
+             "full": {"hard-spheres": [5e-4, 1e-3, 2e-3, 4e-3], "nematic": [5e-4, 1e-3, 2e-3, 3e-3]}}
 TRADEOFF_PRESETS = {
-    # scene -> (equilibration tau, production tau, sample every tau)
-    "quick": {"dts": [1e-5, 3e-5, 1e-4, 3e-4, 1e-3],
+    # dts per method (exact: per scene); scene -> (equilibration tau, production tau, sample every tau)
+    "quick": {"dts": {"midpoint": [1e-5, 3e-5, 1e-4, 3e-4, 1e-3], "exact": EXACT_DTS["quick"]},
               "hard-spheres": (1.0, 10.0, 0.01), "nematic": (2.0, 4.0, 0.02)},
-    "default": {"dts": [2e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3],
+    "default": {"dts": {"midpoint": [2e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3], "exact": EXACT_DTS["full"]},
                 "hard-spheres": (1.0, 10.0, 0.01), "nematic": (2.0, 8.0, 0.02)},
-    "long": {"dts": [2e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3],
+    "long": {"dts": {"midpoint": [2e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3], "exact": EXACT_DTS["full"]},
              "hard-spheres": (2.0, 50.0, 0.01), "nematic": (100.0, 50.0, 0.02)},
 }
+# exact_skin: the exact method's bounds grow with the step's flight, so at its large dt a
+# wider skin (fewer rebuilds) is cheaper; it never changes the trajectory (bench/tradeoff/README.md).
 TRADEOFF_SCENES = {
     "hard-spheres": {"scene": "scenes/hard-spheres.toml", "n": 2197,
-                     "p_ref": (HS_ETA * carnahan_starling(HS_ETA), 0.0), "s_ref": None,
+                     "p_ref": (HS_ETA * carnahan_starling(HS_ETA), 0.0), "s_ref": None, "exact_skin": 0.5,
                      "label": "hard spheres, eta = 0.45, N = 2197"},
     "nematic": {"scene": "scenes/everyday.toml", "n": 2304, "p_ref": NEMATIC_P_REF, "s_ref": NEMATIC_S_REF,
-                "label": "L/D = 5, rho* = 0.5, N = 2304 (lattice start)"},
+                "exact_skin": 1.0, "label": "L/D = 5, rho* = 0.5, N = 2304"},
 }
+# |bias| / sd beyond which an exact point is called inconsistent with the dt -> 0 value.
+CONSISTENT_SIGMA = 2.0
+
+
+def fail(message):
+    sys.exit(f"bench tradeoff: {message}")
+
+
+def positive_list(flag, text):
+    """The comma list of a flag as positive finite floats, or exit naming the flag and the value."""
+    try:
+        values = parse_list(text)
+    except ValueError:
+        fail(f"{flag} {text!r}: not a comma list of numbers")
+    if not values or not all(finite(v) and v > 0 for v in values):
+        fail(f"{flag} {text!r}: every value must be a positive finite number")
+    return values
+
+
+def sweep_settings(args):
+    """(methods, {(method, scene): dts}, tolerances, scenes) from the flags and the preset; exits on bad
+    values."""
+    preset = TRADEOFF_PRESETS["quick" if args.quick else "long" if args.long else "default"]
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    bad = [m for m in methods if m not in METHODS]
+    if not methods or bad or len(set(methods)) != len(methods):
+        fail(f"--methods {args.methods!r}: give each of {', '.join(METHODS)} at most once")
+    midpoint = positive_list("--dts", args.dts) if args.dts else preset["dts"]["midpoint"]
+    exact = positive_list("--exact-dts", args.exact_dts) if args.exact_dts else None
+    if args.exact_skin is not None and not (finite(args.exact_skin) and args.exact_skin > 0):
+        fail(f"--exact-skin {args.exact_skin!r}: must be a positive finite number (in D)")
+    tolerances = positive_list("--tolerances", args.tolerances) if args.tolerances.strip() else []
+    scenes = [s for s in args.scenes.split(",") if s]
+    for scene in scenes:
+        if scene not in TRADEOFF_SCENES:
+            fail(f"unknown scene {scene!r} in --scenes (choose from {', '.join(TRADEOFF_SCENES)})")
+    dts = {("midpoint", s): sorted(midpoint) for s in scenes}
+    dts.update({("exact", s): sorted(exact or preset["dts"]["exact"][s]) for s in scenes})
+    return methods, dts, tolerances, scenes
+
+
+def exact_skin(args, scene):
+    return args.exact_skin if args.exact_skin is not None else TRADEOFF_SCENES[scene]["exact_skin"]
 
 
 def tradeoff_runs(args, out):
     preset = TRADEOFF_PRESETS["quick" if args.quick else "long" if args.long else "default"]
-    dts = parse_list(args.dts) if args.dts else preset["dts"]
-    tolerances = parse_list(args.tolerances)
+    methods, dts, tolerances, scenes = sweep_settings(args)
     runs = []
-    for scene in args.scenes.split(","):
-        if scene not in TRADEOFF_SCENES:
-            sys.exit(f"bench tradeoff: unknown scene {scene!r} (choose from {', '.join(TRADEOFF_SCENES)})")
+    for scene in scenes:
         eq_tau, prod_tau, sample_tau = preset[scene]
         eq_tau = args.equil_tau if args.equil_tau is not None else eq_tau
         prod_tau = args.prod_tau if args.prod_tau is not None else prod_tau
-        points = [(dt, None) for dt in sorted(dts)] + [(max(dts), tol) for tol in tolerances]
-        for dt, tol in points:
+        points = []
+        for method in methods:
+            points += [(method, dt, None) for dt in dts[method, scene]]
+            if method == "midpoint":  # the solver exists only in the midpoint method
+                points += [(method, max(dts[method, scene]), tol) for tol in tolerances]
+        for method, dt, tol in points:
             sets = {"run.dt": repr(dt), "run.equilibration_steps": str(round(eq_tau / dt)),
                     "run.steps": str(round(prod_tau / dt)),
                     "run.sample_interval": str(max(1, round(sample_tau / dt)))}
+            skin = None
+            if method == "exact":
+                skin = exact_skin(args, scene)
+                sets["run.method"] = '"exact"'
+                sets["run.skin"] = repr(skin)
             if tol is not None:
                 sets["run.solver_tolerance"] = repr(tol)
             if args.seed is not None:
                 sets["init.seed"] = str(args.seed)
             if args.start and scene == "nematic":
                 sets.update(file_start(args.start))
-            name = f"{scene}-dt{dt:g}" + (f"-tol{tol:g}" if tol is not None else "")
+            # midpoint names unchanged, so --reuse still finds results made before the exact method
+            name = (f"{scene}-" + ("exact-" if method == "exact" else "") + f"dt{dt:g}"
+                    + (f"-tol{tol:g}" if tol is not None else ""))
             run = Run(name, TRADEOFF_SCENES[scene]["scene"], sets, args.threads, out / "runs" / name,
-                      meta={"scene": scene, "dt": dt, "tolerance": tol, "equilibration_tau": eq_tau,
-                            "production_tau": prod_tau, "n": TRADEOFF_SCENES[scene]["n"]})
+                      meta={"scene": scene, "method": method, "dt": dt, "tolerance": tol, "skin": skin,
+                            "equilibration_tau": eq_tau, "production_tau": prod_tau,
+                            "n": TRADEOFF_SCENES[scene]["n"]})
             runs.append(run)
     return runs
 
 
 def extrapolate(rows, key, fit_max_dt):
+    """Weighted linear fit of the midpoint sweep's key over dt <= fit_max_dt: the dt -> 0 value."""
     pts = [(r["dt"], r[key], r[key + "_error"]) for r in rows
-           if r["kind"] == "dt" and r["ok"] and r["dt"] <= fit_max_dt * (1 + 1e-9)
+           if r["kind"] == "dt" and r["method"] == "midpoint" and r["ok"] and r["dt"] <= fit_max_dt * (1 + 1e-9)
            and finite(r.get(key)) and finite(r.get(key + "_error")) and r[key + "_error"] > 0]
     if len(pts) < 2:
         return None
@@ -102,9 +176,10 @@ def extrapolate(rows, key, fit_max_dt):
             "chi2": chi2, "dof": dof, "points": [p[0] for p in pts], "fit_max_dt": fit_max_dt}
 
 
-def recommend(rows, fit, tol_rel):
-    """Largest dt whose P* (and that of every smaller dt) is within tol_rel of the dt -> 0 value."""
-    sweep = sorted((r for r in rows if r["kind"] == "dt"), key=lambda r: r["dt"])
+def recommend(rows, fit, tol_rel, method="midpoint"):
+    """Largest dt of one method's sweep whose P* (and that of every smaller dt) is within tol_rel of
+    the dt -> 0 value; (dt or None, text). The fitted slope's 0.5 % point is the midpoint's only."""
+    sweep = sorted((r for r in rows if r["kind"] == "dt" and r["method"] == method), key=lambda r: r["dt"])
     for r in sweep:
         rel, sig = r.get("p_bias_extrap_rel"), r.get("p_bias_extrap_rel_error")
         if rel is not None and sig:
@@ -116,9 +191,10 @@ def recommend(rows, fit, tol_rel):
             break
         best = (r, r.get("p_within_tolerance_probability") or 0.0)
     if fit is None:
-        return None, "no dt -> 0 extrapolation (fewer than 2 usable small-dt points)"
+        return None, "no dt -> 0 extrapolation (fewer than 2 usable small-dt midpoint points)"
+    if not sweep:
+        return None, f"no {method} runs"
     p0 = fit["value"]
-    text = ""
     if best is None:
         text = f"no dt in the sweep keeps P* within {100 * tol_rel:g} % of the dt -> 0 value"
     else:
@@ -128,6 +204,10 @@ def recommend(rows, fit, tol_rel):
         text = (f"dt = {r['dt']:g}: P* bias {100 * r['p_bias_extrap_rel']:+.3f} % +/- "
                 f"{100 * r['p_bias_extrap_rel_error']:.3f} % against the dt -> 0 value {pm(p0, fit['error'])}; "
                 f"probability the true bias is within {100 * tol_rel:g} %: {100 * prob:.0f} % ({sure})")
+        if r is sweep[-1] and method == "exact":
+            text += "; the sweep's largest dt: a larger one may do too"
+    if method != "midpoint":
+        return (best[0]["dt"] if best else None), text
     if fit["slope_error"] and abs(fit["slope"]) > 2 * fit["slope_error"]:
         dt_max = tol_rel * abs(p0) / abs(fit["slope"])
         text += (f"; the linear fit puts the {100 * tol_rel:g} % point at dt = {dt_max:.2g} "
@@ -137,6 +217,57 @@ def recommend(rows, fit, tol_rel):
     return (best[0]["dt"] if best else None), text
 
 
+def exact_consistency(rows):
+    """Is the exact method's P* consistent with the dt -> 0 value (within CONSISTENT_SIGMA sd) at every
+    dt? {consistent, points: [(dt, sd vs dt -> 0, sd vs reference)], text}, or None without exact rows."""
+    sweep = sorted((r for r in rows if r["kind"] == "dt" and r["method"] == "exact"), key=lambda r: r["dt"])
+    if not sweep:
+        return None
+    points = [{"dt": r["dt"], "sigma_extrapolated": r.get("p_bias_extrap_sigma"),
+               "sigma_reference": r.get("p_bias_ref_sigma"), "ok": r["ok"]} for r in sweep]
+    usable = [p for p in points if p["ok"] and p["sigma_extrapolated"] is not None]
+    listed = ", ".join(f"{p['dt']:g}: {p['sigma_extrapolated']:+.1f}" for p in usable)
+    failed = [p["dt"] for p in points if not p["ok"]]
+    off = [p for p in usable if abs(p["sigma_extrapolated"]) > CONSISTENT_SIGMA]
+    if not usable:
+        consistent, text = None, "exact method: no point to compare with the dt -> 0 value"
+    elif off or failed:
+        consistent = False
+        text = (f"exact method: P* NOT consistent with the dt -> 0 value at every dt (bias in sd at dt = {listed}"
+                + (f"; failed at dt = {', '.join(f'{d:g}' for d in failed)}" if failed else "") + ")")
+    else:
+        consistent = True
+        text = (f"exact method: P* consistent with the dt -> 0 value at every dt (|bias| <= "
+                f"{CONSISTENT_SIGMA:g} sd; bias in sd at dt = {listed})")
+    return {"consistent": consistent, "points": points, "threshold_sigma": CONSISTENT_SIGMA, "text": text}
+
+
+def cheaper_at_target(by_method, rows, tol_pct):
+    """The cheaper method at its recommended dt: {method, ratio, text}."""
+    costs = {}
+    for method, rec in by_method.items():
+        row = next((r for r in rows if r["kind"] == "dt" and r["method"] == method
+                    and r["dt"] == rec["recommended_dt"]), None)
+        rec["cost_at_recommended"] = row["cost_cpu_s_per_tau_per_particle"] if row else None
+        if finite(rec["cost_at_recommended"]):
+            costs[method] = rec["cost_at_recommended"]
+    if not costs:
+        return {"method": None, "ratio": None, "text": f"no method keeps P* within {tol_pct:g} %"}
+    best = min(costs, key=costs.get)
+    at = f"{best} at dt = {by_method[best]['recommended_dt']:g} ({g(costs[best], 3)} CPU s/tau/particle)"
+    others = [m for m in by_method if m != best]
+    if not others:
+        return {"method": best, "ratio": None, "text": f"only {at} was swept"}
+    other = others[0]
+    if other not in costs:
+        return {"method": best, "ratio": None,
+                "text": f"{at}; {other} keeps P* within {tol_pct:g} % at no dt of its sweep"}
+    ratio = costs[other] / costs[best]
+    return {"method": best, "ratio": ratio,
+            "text": f"{at}, {ratio:.2g}x cheaper than {other} at dt = {by_method[other]['recommended_dt']:g} "
+                    f"({g(costs[other], 3)})"}
+
+
 def main(args):
     jobs = args.jobs or max(1, NPROC // args.threads)
     out = make_outdir(args, "tradeoff")
@@ -144,7 +275,9 @@ def main(args):
     if args.dry_run:
         preset = "quick" if args.quick else "long" if args.long else "default"
         start = f"nematic from {args.start}" if args.start else "lattice starts"
-        print_dry_run(runs, jobs, f" ({preset} preset; equal simulated time at every dt; {start})")
+        skins = ", ".join(f"{s} {exact_skin(args, s):g} D" for s in dict.fromkeys(r.meta["scene"] for r in runs))
+        print_dry_run(runs, jobs, f" ({preset} preset; equal simulated time at every dt; {start}; "
+                                  f"exact method's run.skin: {skins})")
         print(f"and write {relpath(out)}/tradeoff.csv, tradeoff.json, tradeoff.md, pareto.png")
         return 0
     ensure_built(args, [HARDROD])
@@ -153,6 +286,21 @@ def main(args):
     rows = [point_row(res) for res in results]
     analysis = analyse(rows, args)
     return write_report(args, out, rows, analysis, results)
+
+
+def exact_work(s, steps):
+    """The exact method's work per step from summary.json's "exact" object (None for midpoint)."""
+    e = s.get("exact")
+    if not isinstance(e, dict):
+        return {}
+    per = e.get("steps") or steps
+    return {"collisions_per_step": e.get("collisions_per_step"),
+            "searches_per_step": e["searches"] / per if per and "searches" in e else None,
+            "candidates_per_step": e["candidates"] / per if per and "candidates" in e else None,
+            "root_iterations_per_search": e.get("root_iterations_per_search"),
+            "events_per_step": e.get("events_per_step"), "repredictions_per_step": e.get("repredictions_per_step"),
+            "largest_cluster": e.get("largest_cluster"), "fallbacks": e.get("fallbacks"),
+            "unconverged_searches": e.get("unconverged_searches"), "rebuilt_in_step": e.get("rebuilt_in_step")}
 
 
 def point_row(res):
@@ -166,9 +314,12 @@ def point_row(res):
     n, steps_done, sim_t = s.get("n"), s.get("steps_done") or 0, s.get("simulated_time")
     wall, threads = s.get("wall_seconds"), s.get("threads", res.run.threads)
     cost = wall * threads / (sim_t * n) if res.ok and sim_t and n and wall else None
+    method = m.get("method", "midpoint")
     return {
-        "scene": m["scene"], "kind": "dt" if m["tolerance"] is None else "tolerance", "dt": m["dt"],
-        "solver_tolerance": m["tolerance"] if m["tolerance"] is not None else "scene default",
+        "scene": m["scene"], "method": method, "kind": "dt" if m["tolerance"] is None else "tolerance",
+        "dt": m["dt"], "skin": m.get("skin") if m.get("skin") is not None else "scene default",
+        "solver_tolerance": m["tolerance"] if m["tolerance"] is not None else
+        ("scene default" if method == "midpoint" else "-"),
         "ok": res.ok, "status": res.status(), "error": res.error or None, "n": n,
         "equilibration_tau": m["equilibration_tau"], "production_tau": m["production_tau"],
         "steps_done": steps_done, "simulated_time": sim_t, "wall_seconds": wall, "threads": threads,
@@ -183,13 +334,41 @@ def point_row(res):
         if steps_done and "multi_contact_bodies" in s else None,
         "collision_rate": s.get("collision_rate"), "solver_iterations_max": s.get("solver_iterations_max"),
         "solver_energy_change": s.get("solver_energy_change"),
-        "solver_unconverged": s.get("solver_unconverged"), "load_average_1min": res.load_before,
-        "run_dir": relpath(res.run.out)}
+        "solver_unconverged": s.get("solver_unconverged"), "neighbor_list_builds": s.get("neighbor_list_builds"),
+        **{"exact_" + k: v for k, v in exact_work(s, steps_done).items()},
+        "load_average_1min": res.load_before, "run_dir": relpath(res.run.out)}
+
+
+def add_biases(r, fit_p, fit_s, info):
+    """The row's P* and S bias columns against the dt -> 0 fits and the references."""
+    p, pe = r["pressure_star"], r["pressure_star_error"]
+    if finite(p) and fit_p:
+        sig = math.hypot(pe or 0.0, fit_p["error"])
+        r["p_extrapolated"] = fit_p["value"]
+        r["p_bias_extrap"] = p - fit_p["value"]
+        r["p_bias_extrap_error"] = sig
+        r["p_bias_extrap_rel"] = (p - fit_p["value"]) / fit_p["value"]
+        r["p_bias_extrap_rel_error"] = sig / fit_p["value"]
+        r["p_bias_extrap_sigma"] = (p - fit_p["value"]) / sig if sig else None
+    if finite(p):
+        ref, ref_e = info["p_ref"]
+        sig = math.hypot(pe or 0.0, ref_e)
+        r["p_bias_ref"] = p - ref
+        r["p_bias_ref_rel"] = (p - ref) / ref
+        r["p_bias_ref_sigma"] = (p - ref) / sig if sig else None
+    S, Se = r["order_parameter"], r["order_parameter_error"]
+    if finite(S) and fit_s:
+        r["s_bias_extrap"] = S - fit_s["value"]
+        r["s_bias_extrap_error"] = math.hypot(Se or 0.0, fit_s["error"])
+    if finite(S) and info["s_ref"]:
+        r["s_bias_ref"] = S - info["s_ref"][0]
+        r["s_bias_ref_error"] = math.hypot(Se or 0.0, info["s_ref"][1])
 
 
 def analyse(rows, args):
-    """Per scene: the dt -> 0 fits, each point's bias against them and the references, the
-    recommended dt. Adds the bias columns to rows; returns the analysis by scene."""
+    """Per scene: the dt -> 0 fits (midpoint sweep), each point's bias against them and the
+    references, the recommended dt per method, the exact method's consistency and the cheaper
+    method at the target. Adds the bias columns to rows; returns the analysis by scene."""
     tol_rel = args.target / 100.0
     analysis = {}
     for scene in dict.fromkeys(r["scene"] for r in rows):
@@ -198,109 +377,19 @@ def analyse(rows, args):
         fit_p = extrapolate(srows, "pressure_star", args.fit_max_dt)
         fit_s = extrapolate(srows, "order_parameter", args.fit_max_dt) if info["s_ref"] else None
         for r in srows:
-            p, pe = r["pressure_star"], r["pressure_star_error"]
-            if finite(p) and fit_p:
-                sig = math.hypot(pe or 0.0, fit_p["error"])
-                r["p_extrapolated"] = fit_p["value"]
-                r["p_bias_extrap"] = p - fit_p["value"]
-                r["p_bias_extrap_error"] = sig
-                r["p_bias_extrap_rel"] = (p - fit_p["value"]) / fit_p["value"]
-                r["p_bias_extrap_rel_error"] = sig / fit_p["value"]
-                r["p_bias_extrap_sigma"] = (p - fit_p["value"]) / sig if sig else None
-            if finite(p):
-                ref, ref_e = info["p_ref"]
-                sig = math.hypot(pe or 0.0, ref_e)
-                r["p_bias_ref"] = p - ref
-                r["p_bias_ref_rel"] = (p - ref) / ref
-                r["p_bias_ref_sigma"] = (p - ref) / sig if sig else None
-            S, Se = r["order_parameter"], r["order_parameter_error"]
-            if finite(S) and fit_s:
-                r["s_bias_extrap"] = S - fit_s["value"]
-                r["s_bias_extrap_error"] = math.hypot(Se or 0.0, fit_s["error"])
-            if finite(S) and info["s_ref"]:
-                r["s_bias_ref"] = S - info["s_ref"][0]
-                r["s_bias_ref_error"] = math.hypot(Se or 0.0, info["s_ref"][1])
-        dt_rec, text = recommend(srows, fit_p, tol_rel)
-        analysis[scene] = {"label": info["label"], "fit_pressure_star": fit_p, "fit_order_parameter": fit_s,
-                           "recommended_dt": dt_rec, "recommendation": text}
+            add_biases(r, fit_p, fit_s, info)
+        by_method = {}
+        for method in dict.fromkeys(r["method"] for r in srows):
+            dt_rec, text = recommend(srows, fit_p, tol_rel, method)
+            by_method[method] = {"recommended_dt": dt_rec, "recommendation": text}
+        cheaper = (cheaper_at_target(by_method, srows, args.target) if fit_p else
+                   {"method": None, "ratio": None, "text": "no dt -> 0 fit to measure the biases against"})
+        label = info["label"] + (" (equilibrated start)" if scene == "nematic" and args.start else
+                                 " (lattice start)" if scene == "nematic" else "")
+        analysis[scene] = {"label": label, "fit_pressure_star": fit_p, "fit_order_parameter": fit_s,
+                           "recommended_dt": by_method.get("midpoint", {}).get("recommended_dt"),
+                           "recommendation": by_method.get("midpoint", {}).get("recommendation"),
+                           "methods": by_method, "cheaper_at_target": cheaper,
+                           "exact_consistency": exact_consistency(srows),
+                           "exact_skin": exact_skin(args, scene) if "exact" in by_method else None}
     return analysis
-
-
-def write_report(args, out, rows, analysis, results):
-    """tradeoff.csv, tradeoff.md, tradeoff.json and pareto.png; the table printed."""
-    columns = ["scene", "kind", "dt", "solver_tolerance", "status", "n", "equilibration_tau", "production_tau",
-               "steps_done", "simulated_time", "wall_seconds", "threads", "cost_cpu_s_per_tau_per_particle",
-               "ns_per_particle_step", "pressure_star", "pressure_star_error", "pressure_converged",
-               "p_extrapolated", "p_bias_extrap", "p_bias_extrap_error", "p_bias_extrap_rel",
-               "p_bias_extrap_sigma", "p_within_tolerance_probability", "p_bias_ref", "p_bias_ref_rel",
-               "p_bias_ref_sigma", "order_parameter", "order_parameter_error", "s_bias_extrap",
-               "s_bias_extrap_error", "s_bias_ref", "s_bias_ref_error", "compressibility_factor",
-               "compressibility_factor_error", "equilibrated", "energy_drift", "max_overlap", "contacts_per_step",
-               "multi_contact_bodies_per_step", "collision_rate", "solver_iterations_max", "solver_energy_change",
-               "solver_unconverged", "load_average_1min", "error", "run_dir"]
-    write_csv(out / "tradeoff.csv", rows, columns)
-
-    def pct(x):
-        return "-" if x is None else f"{100 * x:+.2f} %"
-
-    table_rows = []
-    for r in rows:
-        table_rows.append([
-            r["scene"], g(r["dt"]), "default" if r["kind"] == "dt" else g(r["solver_tolerance"]),
-            r["status"] if not r["ok"] else g(r["cost_cpu_s_per_tau_per_particle"], 3),
-            pm(r["pressure_star"], r["pressure_star_error"]),
-            pct(r.get("p_bias_extrap_rel")) + ("" if r.get("p_bias_extrap_sigma") is None
-                                              else f" ({r['p_bias_extrap_sigma']:+.1f} sd)"),
-            pct(r.get("p_bias_ref_rel")),
-            pm(r["order_parameter"], r["order_parameter_error"]) if r["order_parameter"] is not None else "-",
-            g(r.get("s_bias_extrap"), 3),
-            g(r["energy_drift"], 2), g(r["max_overlap"], 3), g(r["contacts_per_step"], 3),
-            g(r["multi_contact_bodies_per_step"], 3)])
-    table = markdown_table(
-        ["scene", "dt", "solver tol", "cost (CPU s/tau/particle)", "P*", "P* bias vs dt->0", "P* vs SPEC",
-         "S", "S bias vs dt->0", "energy drift /tau", "max overlap (D)", "contacts/step",
-         "multi-contact bodies/step"], table_rows)
-    recs = []
-    for scene, a in analysis.items():
-        fp = a["fit_pressure_star"]
-        fit_txt = (f"P*(dt -> 0) = {pm(fp['value'], fp['error'])} from a weighted linear fit over dt = "
-                   f"{', '.join(g(x) for x in fp['points'])} (chi2 = {fp['chi2']:.2f} for {fp['dof']} dof)"
-                   if fp else "no dt -> 0 fit")
-        fs = a["fit_order_parameter"]
-        if fs:
-            fit_txt += f"; S(dt -> 0) = {pm(fs['value'], fs['error'])}"
-        recs.append(f"- {scene} ({a['label']}): {fit_txt}.\n  Recommended (largest dt keeping P* within "
-                    f"{args.target:g} % of dt -> 0): {a['recommendation']}.")
-    if "nematic" in analysis and args.start:
-        caveat = (f"The nematic starts at every dt from the last frame of {args.start} (an equilibrated run), "
-                  f"with fresh velocities and {args.equil_tau if args.equil_tau is not None else 'the preset'} "
-                  f"tau of equilibration at its own dt before production. ")
-    elif "nematic" in analysis:
-        caveat = ("The nematic starts from the aligned lattice (S = 1) at every dt, with the same simulated "
-                  "equilibration time for all dt (pass --start RUN/trajectory.h5 for an equilibrated start): "
-                  "its P* and S are averages over the same stretch of the relaxation, so they compare dt "
-                  "against dt, not against the equilibrium reference (the 'vs SPEC' column). ")
-    else:
-        caveat = ""
-    caveat += ("Every dt starts from the same configuration and velocities (same seed), so short runs are correlated "
-               "across dt and the bias errors, which treat them as independent, are if anything too large. Errors are block-averaged standard errors; the "
-              "bias error combines the point's error with the extrapolation's. Cost = wall x threads / "
-              "(simulated time x N), equilibration included.")
-    busy = busy_warning([r["load_average_1min"] for r in rows])
-    if busy:
-        caveat += " " + busy
-    png = out / "pareto.png"
-    plot_note = plot_pareto(rows, analysis, png, args.target)
-    text = report_header("Speed against accuracy (dt and solver tolerance sweep)") + table + "\n\n" + \
-        "\n".join(recs) + "\n\n" + caveat + "\n\n" + ("![Pareto plot](pareto.png)\n" if not plot_note else plot_note + "\n")
-    write_text(out / "tradeoff.md", text)
-    write_json(out / "tradeoff.json", {
-        "command": invocation(), "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-        "machine": machine_info(), "target_percent": args.target, "fit_max_dt": args.fit_max_dt,
-        "points": rows, "analysis": analysis, "caveat": caveat,
-        "commands": [r.run.shell() for r in results]})
-    print("\n" + table + "\n\n" + "\n".join(recs) + "\n\n" + caveat)
-    if plot_note:
-        print(plot_note)
-    print(f"results in {relpath(out)}/ (tradeoff.csv, tradeoff.json, tradeoff.md, pareto.png, runs/)")
-    return 0 if all(r["ok"] for r in rows) else 1
