@@ -118,11 +118,13 @@ PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, co
 
 // One thread's scratch for the cells it searches; grown, never shrunk (no refills).
 struct CellScratch {
-  struct Gathered {
-    int cell;
-    double sx, sy, sz;  // shift of the cell's folded centres next to the searched cell
+  // Bodies order[begin, end) of one or more consecutive cells, and the shift of their folded
+  // centres next to the searched cell.
+  struct Run {
+    std::uint32_t begin, end;
+    double sx, sy, sz;
   };
-  std::vector<Gathered> cells_here;  // the searched cell first, then its later neighbours
+  std::vector<Run> runs;  // the searched cell first, then its later neighbours
   // The cell's own bodies, then those of the stencil's later cells (nc > c): body a of
   // the cell meets the candidates after it, so each unordered pair is taken once.
   std::vector<std::uint32_t> cand;
@@ -132,34 +134,76 @@ struct CellScratch {
   std::vector<std::uint32_t> near;  // candidates kept for the exact test
 };
 
+// The stencil along one axis from window coordinate `at`: for each offset, the window
+// coordinate of the cell it reaches (-1 outside the window, where there are no bodies) and
+// the shift that brings that cell's folded centres next to this cell. As CellList::neighbour
+// wraps: stencil offsets stay within one box length, so one add or subtract does.
+struct AxisReach {
+  int count = 0;
+  int at[kMaxAxisOffsets];
+  double shift[kMaxAxisOffsets];
+};
+
+AxisReach axis_reach(const PairSearch &s, int axis, int at) {
+  const CellList &cl = s.cl;
+  const int n = cl.cells[axis], window = cl.extent[axis];
+  const int from = cl.box_coordinate(axis, at);
+  const double length = s.side[axis];
+  AxisReach r;
+  for (int o : cl.axis_offsets[axis]) {
+    int k = at + o;
+    k = k < 0 ? k + n : (k >= n ? k - n : k);
+    const int b = from + o;
+    r.at[r.count] = k >= window ? -1 : k;
+    r.shift[r.count++] = b < 0 ? -length : (b >= n ? length : 0.0);
+  }
+  return r;
+}
+
+// The bodies of cell c, then those of the stencil's cells after it (nc > c), into w.runs in
+// stencil order. The stencil reaches distinct cells, so visiting only cells nc >= c (and, in
+// c itself, only later bodies) takes each unordered pair exactly once. Axis by axis (the
+// stencil is the product of the axes' offsets): the wrap and the shift are worked out 3 x 5
+// times per cell rather than for each of the 125 offsets. Cells whose bodies follow the
+// previous run's in `order` with the same shift (neighbours along x, mostly) extend it: a
+// nematic's cells hold ~3 bodies, too few for a copy loop per cell to pay.
+void later_cells(const PairSearch &s, int c, CellScratch &w) {
+  const CellList &cl = s.cl;
+  const std::uint32_t *__restrict start = cl.cell_start.data();
+  const int ex = cl.extent[0], ey = cl.extent[1];
+  const AxisReach x = axis_reach(s, 0, c % ex), y = axis_reach(s, 1, (c / ex) % ey),
+                  z = axis_reach(s, 2, c / (ex * ey));
+  w.runs.resize(1 + cl.stencil.size());
+  CellScratch::Run *__restrict out = w.runs.data();
+  std::size_t n = 0;
+  out[n++] = {start[c], start[c + 1], 0.0, 0.0, 0.0};
+  for (int kz = 0; kz < z.count; ++kz) {
+    if (z.at[kz] < 0) continue;
+    for (int ky = 0; ky < y.count; ++ky) {
+      if (y.at[ky] < 0) continue;
+      const int row = (z.at[kz] * ey + y.at[ky]) * ex;
+      for (int kx = 0; kx < x.count; ++kx) {
+        const int nc = row + x.at[kx];
+        if (x.at[kx] < 0 || nc <= c || start[nc] == start[nc + 1]) continue;
+        CellScratch::Run &last = out[n - 1];
+        if (start[nc] == last.end && x.shift[kx] == last.sx && y.shift[ky] == last.sy &&
+            z.shift[kz] == last.sz)
+          last.end = start[nc + 1];
+        else
+          out[n++] = {start[nc], start[nc + 1], x.shift[kx], y.shift[ky], z.shift[kz]};
+      }
+    }
+  }
+  w.runs.resize(n);
+}
+
 // The candidates of cell c: its bodies, then those of the stencil's cells after it. Returns
 // how many are c's own.
 std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   const CellList &cl = s.cl;
-  const int cx = c % cl.extent[0];  // window coordinates
-  const int cy = (c / cl.extent[0]) % cl.extent[1];
-  const int cz = c / (cl.extent[0] * cl.extent[1]);
-  const int bx = cl.box_coordinate(0, cx), by = cl.box_coordinate(1, cy),
-            bz = cl.box_coordinate(2, cz);
-  w.cells_here.clear();
-  w.cells_here.push_back({c, 0.0, 0.0, 0.0});
-  for (const auto &o : cl.stencil) {
-    // The stencil reaches distinct cells, so visiting only cells nc >= c (and, in c
-    // itself, only later bodies) takes each unordered pair exactly once. Outside the
-    // window (-1) there are no bodies.
-    const int nc = cl.neighbour(cx, cy, cz, o);
-    if (nc <= c) continue;
-    // The shift that brings the neighbour cell's folded centres next to this cell.
-    const auto shift = [](int at, int n, double length) {
-      return at < 0 ? -length : (at >= n ? length : 0.0);
-    };
-    w.cells_here.push_back({nc, shift(bx + o[0], cl.cells[0], s.side[0]),
-                            shift(by + o[1], cl.cells[1], s.side[1]),
-                            shift(bz + o[2], cl.cells[2], s.side[2])});
-  }
+  later_cells(s, c, w);
   std::size_t total = 0;
-  for (const CellScratch::Gathered &g : w.cells_here)
-    total += cl.cell_start[g.cell + 1] - cl.cell_start[g.cell];
+  for (const CellScratch::Run &r : w.runs) total += r.end - r.begin;
   w.cand.resize(total);
   if (s.unique_images) w.cx.resize(total), w.cy.resize(total), w.cz.resize(total);
   if (s.unique_images && s.rods) w.ex.resize(total), w.ey.resize(total), w.ez.resize(total);
@@ -176,10 +220,9 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   double *__restrict oex = w.ex.data(), *__restrict oey = w.ey.data(),
                      *__restrict oez = w.ez.data();
   std::size_t q = 0;
-  for (const CellScratch::Gathered &g : w.cells_here) {
-    const double sx = g.sx, sy = g.sy, sz = g.sz;
-    const std::uint32_t end = start[g.cell + 1];
-    for (std::uint32_t b = start[g.cell]; b < end; ++b, ++q) {
+  for (const CellScratch::Run &r : w.runs) {
+    const double sx = r.sx, sy = r.sy, sz = r.sz;
+    for (std::uint32_t b = r.begin; b < r.end; ++b, ++q) {
       const std::uint32_t j = member[b];
       cand[q] = j;
       if (unique_images) {
