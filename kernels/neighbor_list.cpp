@@ -124,7 +124,10 @@ struct CellScratch {
     std::uint32_t begin, end;
     double sx, sy, sz;
   };
-  std::vector<Run> runs;  // the searched cell first, then its later neighbours
+  // runs[0, run_count): the searched cell first, then its later neighbours. Sized for the
+  // whole stencil once, not per cell (a resize would clear every new run again).
+  std::vector<Run> runs;
+  std::size_t run_count = 0;
   // The cell's own bodies, then those of the stencil's later cells (nc > c): body a of
   // the cell meets the candidates after it, so each unordered pair is taken once.
   std::vector<std::uint32_t> cand;
@@ -163,19 +166,19 @@ AxisReach axis_reach(const PairSearch &s, int axis, int at) {
 }
 
 // The bodies of cell c, then those of the stencil's cells after it (nc > c), into w.runs in
-// stencil order. The stencil reaches distinct cells, so visiting only cells nc >= c (and, in
-// c itself, only later bodies) takes each unordered pair exactly once. Axis by axis (the
-// stencil is the product of the axes' offsets): the wrap and the shift are worked out 3 x 5
-// times per cell rather than for each of the 125 offsets. Cells whose bodies follow the
-// previous run's in `order` with the same shift (neighbours along x, mostly) extend it: a
-// nematic's cells hold ~3 bodies, too few for a copy loop per cell to pay.
+// stencil order (w.run_count of them). The stencil reaches distinct cells, so visiting only cells
+// nc >= c (and, in c itself, only later bodies) takes each unordered pair exactly once. Axis by
+// axis (the stencil is the product of the axes' offsets): the wrap and the shift are worked out 3 x
+// 5 times per cell rather than for each of the 125 offsets. Cells whose bodies follow the previous
+// run's in `order` with the same shift (neighbours along x, mostly) extend it: a nematic's cells
+// hold ~3 bodies, too few for a copy loop per cell to pay.
 void later_cells(const PairSearch &s, int c, CellScratch &w) {
   const CellList &cl = s.cl;
   const std::uint32_t *__restrict start = cl.cell_start.data();
   const int ex = cl.extent[0], ey = cl.extent[1];
   const AxisReach x = axis_reach(s, 0, c % ex), y = axis_reach(s, 1, (c / ex) % ey),
                   z = axis_reach(s, 2, c / (ex * ey));
-  w.runs.resize(1 + cl.stencil.size());
+  if (w.runs.size() < 1 + cl.stencil.size()) w.runs.resize(1 + cl.stencil.size());
   CellScratch::Run *__restrict out = w.runs.data();
   std::size_t n = 0;
   out[n++] = {start[c], start[c + 1], 0.0, 0.0, 0.0};
@@ -196,7 +199,7 @@ void later_cells(const PairSearch &s, int c, CellScratch &w) {
       }
     }
   }
-  w.runs.resize(n);
+  w.run_count = n;
 }
 
 // The candidates of cell c: its bodies, then those of the stencil's cells after it. Returns
@@ -205,7 +208,8 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   const CellList &cl = s.cl;
   later_cells(s, c, w);
   std::size_t total = 0;
-  for (const CellScratch::Run &r : w.runs) total += r.end - r.begin;
+  const CellScratch::Run *runs = w.runs.data(), *runs_end = runs + w.run_count;
+  for (const CellScratch::Run *r = runs; r != runs_end; ++r) total += r->end - r->begin;
   w.cand.resize(total);
   if (s.unique_images) w.cx.resize(total), w.cy.resize(total), w.cz.resize(total);
   if (s.unique_images && s.rods) w.ex.resize(total), w.ey.resize(total), w.ez.resize(total);
@@ -222,9 +226,9 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   double *__restrict oex = w.ex.data(), *__restrict oey = w.ey.data(),
                      *__restrict oez = w.ez.data();
   std::size_t q = 0;
-  for (const CellScratch::Run &r : w.runs) {
-    const double sx = r.sx, sy = r.sy, sz = r.sz;
-    for (std::uint32_t b = r.begin; b < r.end; ++b, ++q) {
+  for (const CellScratch::Run *r = runs; r != runs_end; ++r) {
+    const double sx = r->sx, sy = r->sy, sz = r->sz;
+    for (std::uint32_t b = r->begin; b < r->end; ++b, ++q) {
       const std::uint32_t j = member[b];
       cand[q] = j;
       if (unique_images) {
