@@ -109,10 +109,11 @@ void build_cell_list(CellList &list, const Particles &p, std::size_t count, cons
 
   list.full_stencil = true;
   for (int a = 0; a < 3; ++a) list.full_stencil &= list.cells[a] >= 2 * k + 1;
+  for (int a = 0; a < 3; ++a) list.axis_offsets[a] = axis_offsets(list.cells[a], k);
   list.stencil.clear();
-  for (int oz : axis_offsets(list.cells[2], k))
-    for (int oy : axis_offsets(list.cells[1], k))
-      for (int ox : axis_offsets(list.cells[0], k)) list.stencil.push_back({ox, oy, oz});
+  for (int oz : list.axis_offsets[2])
+    for (int oy : list.axis_offsets[1])
+      for (int ox : list.axis_offsets[0]) list.stencil.push_back({ox, oy, oz});
 
   if (binned != list.cells) coordinates(p, count, side, list.cells, at, occupied);
   if (fit && count > 0) {

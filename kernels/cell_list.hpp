@@ -16,6 +16,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -23,6 +24,9 @@
 #include "kernels/particles.hpp"
 
 namespace hardrod {
+
+// Offsets along one axis of the stencil: -k..k for k = 2 cells per reach, or fewer.
+inline constexpr std::size_t kMaxAxisOffsets = 5;
 
 struct CellList {
   std::array<int, 3> cells{1, 1, 1};   // cells per axis over the whole box
@@ -32,6 +36,9 @@ struct CellList {
       cell_start;                    // bodies of cell c: order[cell_start[c] .. cell_start[c+1])
   std::vector<std::uint32_t> order;  // body indices sorted by cell
   std::vector<std::array<int, 3>> stencil;  // distinct neighbour offsets, including {0,0,0}
+  // The stencil's offsets along each axis (at most kMaxAxisOffsets): the stencil is their
+  // product, x fastest and z slowest, so a walk may take the axes one at a time.
+  std::array<std::vector<int>, 3> axis_offsets;
   // Every axis has the full stencil (-k..k, 2k + 1 cells or more): the box is wider than
   // twice the reach, so a pair within reach has one periodic image.
   bool full_stencil = false;

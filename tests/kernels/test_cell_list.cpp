@@ -3,15 +3,18 @@
 // closer than the reach is met exactly once and no pair twice, with and without the fitted
 // window, in large boxes (two cells per reach), boxes of one, two or three cells per axis
 // (the reduced stencil), gases with empty cells, clusters, and centres outside the box.
-// Also: the binning itself (order is a permutation, each body in the cell of its centre).
+// Also: the binning itself (order is a permutation, each body in the cell of its centre), and
+// the stencil as the product of its per-axis offsets.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <random>
 #include <set>
 #include <utility>
+#include <vector>
 
 #include "kernels/cell_list.hpp"
 
@@ -96,6 +99,13 @@ CellList check(const Particles &p, const Box &box, double reach, bool fit) {
   const std::set<std::array<int, 3>> offsets(cl.stencil.begin(), cl.stencil.end());
   EXPECT_EQ(offsets.size(), cl.stencil.size());
   EXPECT_TRUE(offsets.count({0, 0, 0}));
+  // It is the product of the axes' offsets, x fastest (the neighbour list walks it so).
+  std::vector<std::array<int, 3>> product;
+  for (int a = 0; a < 3; ++a) EXPECT_LE(cl.axis_offsets[a].size(), kMaxAxisOffsets);
+  for (int oz : cl.axis_offsets[2])
+    for (int oy : cl.axis_offsets[1])
+      for (int ox : cl.axis_offsets[0]) product.push_back({ox, oy, oz});
+  EXPECT_EQ(product, cl.stencil);
   for (int c = 0; c < cl.cell_count(); ++c) {
     std::set<int> reached;
     int inside = 0;
