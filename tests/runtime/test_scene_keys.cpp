@@ -189,7 +189,7 @@ TEST(SceneKeys, MethodIsMidpointOrExact) {
   std::string no_skin = kScene;
   no_skin.erase(no_skin.find("skin = 0.3\n"), 11);
   EXPECT_EQ(parse_scene(no_skin).skin, 0.3);
-  EXPECT_EQ(parse_scene(no_skin, {"run.method=exact"}).skin, 0.8);
+  EXPECT_EQ(parse_scene(no_skin, {"run.method=exact"}).skin, 0.6);
   EXPECT_EQ(parse_scene(kScene, {"run.method=exact"}).skin, 0.3);
   EXPECT_EQ(parse_scene(no_skin, {"run.method=exact", "run.skin=0.4"}).skin, 0.4);
   const auto problems = problems_of(kScene, {"run.method=leapfrog"});
