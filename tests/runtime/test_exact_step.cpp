@@ -120,5 +120,46 @@ TEST(ExactStep, ANaNVelocityStopsTheRun) {
   }
 }
 
+// A body that a collision speeds up can outrun the list within a step: sphere A moves along +y
+// (its bound grows with every step), B comes along -x and gives A its x velocity, so A's flight
+// after the collision is longer than its bound allowed and, with this skin, beyond half of it.
+// The step is solved again on a list built at its start: the same state as with a skin that
+// never needs it.
+TEST(ExactStep, AFlightBeyondTheSkinWithinAStepRebuildsAndSolvesAgain) {
+  const auto run = [](double skin, long long &rebuilt) {
+    Scene s;
+    s.shape_name = "sphere";
+    s.shape.length = 0.0;
+    s.n = 2;
+    s.lattice = {2, 1, 1};
+    s.box.length = {20, 20, 20};
+    s.dt = 0.01;
+    s.method = kExact;
+    s.skin = skin;
+    s.thermostat_interval = 0;
+    Particles b;
+    b.resize(2);
+    b.id = {0, 1};
+    const double t_hit = 4.1 * s.dt;
+    b.set_position(0, {10, 10, 10});
+    b.set_velocity(0, {0, 2, 0});
+    b.set_axis(0, {1, 0, 0});
+    b.set_position(1, {11 + 2 * t_hit, 10 + 2 * t_hit, 10});
+    b.set_velocity(1, {-2, 0, 0});
+    b.set_axis(1, {1, 0, 0});
+    Simulation sim(s, b);
+    sim.advance(20);
+    rebuilt = sim.exact_record().rebuilt_in_step;
+    EXPECT_EQ(sim.exact_record().totals.collisions, 1);
+    EXPECT_NEAR(sim.particles().vx[sim.particles().id[0] == 0 ? 0 : 1], -2.0, 1e-9);
+    return sim.state_checksum();
+  };
+  long long tight = 0, wide = 0;
+  const std::string a = run(0.21, tight), b = run(1.0, wide);
+  EXPECT_EQ(tight, 1);
+  EXPECT_EQ(wide, 0);
+  EXPECT_EQ(a, b);
+}
+
 }  // namespace
 }  // namespace hardrod
