@@ -445,18 +445,6 @@ void regroup(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &joins,
   pt.add(members, cands, scratch.label);
 }
 
-void add_counts(ExactStats &to, const ExactStats &from) {
-  to.collisions += from.collisions;
-  to.events += from.events;
-  to.searches += from.searches;
-  to.repredictions += from.repredictions;
-  to.root_iterations += from.root_iterations;
-  to.unconverged += from.unconverged;
-  to.fallbacks += from.fallbacks;
-  to.grazes += from.grazes;
-  to.virial += from.virial;
-}
-
 }  // namespace
 
 ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
@@ -481,7 +469,7 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
   const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
   for (std::size_t from = 0;;) {
     solve(cx, pt, from);
-    for (std::size_t g = from; g < pt.count(); ++g) add_counts(stats, pt.stats[g]);
+    for (std::size_t g = from; g < pt.count(); ++g) stats += pt.stats[g];
     for (std::size_t g = 0; g < pt.count(); ++g)
       if (pt.alive[g])
         for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = f.overrun;
@@ -508,6 +496,23 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
   }
   for (const std::uint32_t b : pt.bodies) scratch.parent[b] = scratch.label[b] = kNone;
   return stats;
+}
+
+ExactStats &ExactStats::operator+=(const ExactStats &o) {
+  candidates += o.candidates;
+  clusters += o.clusters;
+  largest_cluster = std::max(largest_cluster, o.largest_cluster);
+  collisions += o.collisions;
+  events += o.events;
+  searches += o.searches;
+  repredictions += o.repredictions;
+  root_iterations += o.root_iterations;
+  unconverged += o.unconverged;
+  regrown += o.regrown;
+  fallbacks += o.fallbacks;
+  grazes += o.grazes;
+  virial += o.virial;
+  return *this;
 }
 
 void land_flown(Particles &p, const std::vector<FlownBody> &flown) {

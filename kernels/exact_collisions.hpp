@@ -65,6 +65,9 @@ struct ExactStats {
   long long fallbacks = 0;        // clusters past the event cap (simultaneous solver)
   long long grazes = 0;           // contacts found closing that the impulse saw receding
   ExactSum virial;                // sum of J n . (x_i - x_j) at the touching configuration
+
+  // Sums, and the larger largest_cluster.
+  ExactStats &operator+=(const ExactStats &other);
 };
 
 // A body whose velocity changed in the step: its state at the step's end, and how much further

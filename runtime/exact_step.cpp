@@ -121,20 +121,8 @@ void Simulation::tally_exact(const DetectionStats &detected, const ExactStats &s
   interval_.contacts += stats.candidates;
   interval_.clusters += stats.clusters;
   interval_.max_depth = std::max(interval_.max_depth, detected.max_depth);
-  ExactStats &t = exact_.totals;
   ++exact_.steps;
-  t.candidates += stats.candidates;
-  t.clusters += stats.clusters;
-  t.largest_cluster = std::max(t.largest_cluster, stats.largest_cluster);
-  t.collisions += stats.collisions;
-  t.events += stats.events;
-  t.searches += stats.searches;
-  t.repredictions += stats.repredictions;
-  t.root_iterations += stats.root_iterations;
-  t.unconverged += stats.unconverged;
-  t.regrown += stats.regrown;
-  t.fallbacks += stats.fallbacks;
-  t.grazes += stats.grazes;
+  exact_.totals += stats;
 }
 
 }  // namespace hardrod
