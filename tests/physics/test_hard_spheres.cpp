@@ -18,6 +18,31 @@ double carnahan_starling(double eta) {
   return (1 + eta + eta * eta - eta * eta * eta) / std::pow(1 - eta, 3);
 }
 
+// Runs `scene` in a scratch directory (`name`), prints Z against Carnahan-Starling with `what`,
+// and checks it: error below 0.2 % and Z within 0.5 % of CS. Returns the summary.
+nlohmann::json run_and_check_z(const Scene &scene, double eta, const std::string &name,
+                               const std::string &what) {
+  const auto dir = std::filesystem::temp_directory_path() / name;
+  std::filesystem::remove_all(dir);
+  RunOptions options;
+  options.output_dir = dir.string();
+  options.quiet = true;
+  const auto summary = run_scene(scene, options);
+  std::filesystem::remove_all(dir);
+  const double z = summary["compressibility_factor"]["mean"].get<double>();
+  const double err = summary["compressibility_factor"]["error"].get<double>();
+  const double cs = carnahan_starling(eta);
+  std::printf(
+      "%s: Z = %.4f +/- %.4f, Carnahan-Starling %.4f, deviation %+.3f %%, %lld samples, max "
+      "overlap %.2g D, %.1f s wall\n",
+      what.c_str(), z, err, cs, 100 * (z / cs - 1),
+      summary["compressibility_factor"]["samples"].get<long long>(),
+      summary["max_overlap"].get<double>(), summary["wall_seconds"].get<double>());
+  EXPECT_LT(err / cs, 0.002) << "run too short for a 0.5 % test";
+  EXPECT_NEAR(z / cs, 1.0, 0.005);
+  return summary;
+}
+
 class HardSphereEquationOfState : public ::testing::TestWithParam<double> {};
 
 TEST_P(HardSphereEquationOfState, MatchesCarnahanStarling) {
@@ -27,27 +52,11 @@ TEST_P(HardSphereEquationOfState, MatchesCarnahanStarling) {
   scene.steps = 200000;
   scene.thermostat_interval = 200;
   scene.sample_interval = 250;
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("hardrod-hs-" + std::to_string(static_cast<int>(eta * 100)));
-  std::filesystem::remove_all(dir);
-  RunOptions options;
-  options.output_dir = dir.string();
-  options.quiet = true;
-  const auto summary = run_scene(scene, options);
-  const double z = summary["compressibility_factor"]["mean"].get<double>();
-  const double err = summary["compressibility_factor"]["error"].get<double>();
-  const double cs = carnahan_starling(eta);
-  std::printf(
-      "eta = %.2f: Z = %.4f +/- %.4f, Carnahan-Starling %.4f, deviation %+.3f %%, "
-      "%lld samples, %.1f s wall\n",
-      eta, z, err, cs, 100 * (z / cs - 1),
-      summary["compressibility_factor"]["samples"].get<long long>(),
-      summary["wall_seconds"].get<double>());
-  EXPECT_LT(err / cs, 0.002) << "run too short for a 0.5 % test";
-  EXPECT_NEAR(z / cs, 1.0, 0.005);
+  const auto summary =
+      run_and_check_z(scene, eta, "hardrod-hs-" + std::to_string(static_cast<int>(eta * 100)),
+                      "eta = " + std::to_string(eta));
   EXPECT_LT(summary["max_overlap"].get<double>(), 0.01);
   EXPECT_TRUE(summary["compressibility_factor"]["converged"].get<bool>());
-  std::filesystem::remove_all(dir);
 }
 
 INSTANTIATE_TEST_SUITE_P(PackingFractions, HardSphereEquationOfState, ::testing::Values(0.30, 0.45),
@@ -69,27 +78,12 @@ TEST_P(ExactHardSpheres, MatchCarnahanStarlingWithoutOverlap) {
   scene.steps = std::llround(40.0 / dt);
   scene.thermostat_interval = 0;
   scene.sample_interval = std::llround(0.05 / dt);
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("hardrod-hs-exact-" + std::to_string(std::llround(dt * 1e4)));
-  std::filesystem::remove_all(dir);
-  RunOptions options;
-  options.output_dir = dir.string();
-  options.quiet = true;
-  const auto summary = run_scene(scene, options);
-  const double z = summary["compressibility_factor"]["mean"].get<double>();
-  const double err = summary["compressibility_factor"]["error"].get<double>();
-  const double cs = carnahan_starling(eta);
-  std::printf(
-      "exact, dt = %g: Z = %.4f +/- %.4f, Carnahan-Starling %.4f, deviation %+.3f %%, max "
-      "overlap %.2g D, %.1f s wall\n",
-      dt, z, err, cs, 100 * (z / cs - 1), summary["max_overlap"].get<double>(),
-      summary["wall_seconds"].get<double>());
-  EXPECT_LT(err / cs, 0.002) << "run too short for a 0.5 % test";
-  EXPECT_NEAR(z / cs, 1.0, 0.005);
+  const auto summary =
+      run_and_check_z(scene, eta, "hardrod-hs-exact-" + std::to_string(std::llround(dt * 1e4)),
+                      "exact, dt = " + std::to_string(dt));
   EXPECT_LT(summary["max_overlap"].get<double>(), 1e-9);
   EXPECT_LT(std::fabs(summary["energy_drift"].get<double>()), 1e-12);
   EXPECT_EQ(summary["exact"]["fallbacks"].get<long long>(), 0);
-  std::filesystem::remove_all(dir);
 }
 
 INSTANTIATE_TEST_SUITE_P(TimeSteps, ExactHardSpheres, ::testing::Values(2e-3, 4e-3),
