@@ -33,14 +33,9 @@ bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const
   c.j = j;
   c.id_i = p.id[i];
   c.id_j = p.id[j];
-  c.normal = contact_normal(sc, rij, ei, ej);
+  contact_geometry(sc, rij, ei, ej, shape, c);
   c.separation = -rij;
   c.depth = shape.diameter - distance;
-  c.arm_i = sc.s * cross(ei, c.normal);
-  c.arm_j = sc.t * cross(ej, c.normal);
-  const double inv_m = 1.0 / shape.mass;
-  const double inv_i = shape.inverse_inertia();
-  c.inverse_mass = 2.0 * inv_m + inv_i * (norm2(c.arm_i) + norm2(c.arm_j));
   c.impulse = 0.0;
   return true;
 }

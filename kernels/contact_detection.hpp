@@ -13,6 +13,7 @@
 #include "kernels/contact.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/particles.hpp"
+#include "kernels/segment_geometry.hpp"
 #include "kernels/shape.hpp"
 
 namespace hardrod {
@@ -59,6 +60,20 @@ DetectionStats finish_watched_detection(const Particles &p, const Box &box, cons
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
                                          NeighborList &list, std::vector<Contact> &contacts,
                                          const double *ahead = nullptr);
+
+// A contact's normal, lever arms and inverse effective mass (Contact, contact.hpp) from the
+// closest points `sc` of axes e_i, e_j at separation r_ij = x_j - x_i: shared by the midpoint
+// method's contacts (make_contact) and the exact method's collisions (exact_collisions.cpp),
+// so both give the same impulse for the same touching configuration.
+inline void contact_geometry(const SegmentClosest &sc, const Vec3 &r_ij, const Vec3 &e_i,
+                             const Vec3 &e_j, const Shape &shape, Contact &c) {
+  c.normal = contact_normal(sc, r_ij, e_i, e_j);
+  c.arm_i = sc.s * cross(e_i, c.normal);
+  c.arm_j = sc.t * cross(e_j, c.normal);
+  const double inv_m = 1.0 / shape.mass;
+  const double inv_i = shape.inverse_inertia();
+  c.inverse_mass = 2.0 * inv_m + inv_i * (norm2(c.arm_i) + norm2(c.arm_j));
+}
 
 // Fill the geometric fields of a contact between bodies a and b (any order; the result is
 // canonical). Returns false when the pair does not overlap (distance >= D), or, with `reach`,

@@ -3,15 +3,11 @@
 // and the fallback for a cluster past the event cap.
 #include "kernels/exact_collisions.hpp"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <queue>
 
 #include "kernels/contact_detection.hpp"
-#include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
 
@@ -152,18 +148,17 @@ class ClusterPass {
     const Vec3 r = xb - fa.x;
     const double h = cx_.shape.half_length();
     const SegmentClosest sc = segment_closest_inline(r, fa.e, h, fb.e, h);
-    const Vec3 n = contact_normal(sc, r, fa.e, fb.e);
-    const Vec3 arm_a = sc.s * cross(fa.e, n), arm_b = sc.t * cross(fb.e, n);
-    const double u = dot(n, fa.v - fb.v) + dot(fa.w, arm_a) - dot(fb.w, arm_b);
+    Contact c;
+    contact_geometry(sc, r, fa.e, fb.e, cx_.shape, c);
+    const double u = dot(c.normal, fa.v - fb.v) + dot(fa.w, c.arm_i) - dot(fb.w, c.arm_j);
     if (u < 0.0) {
       const double inv_m = 1.0 / cx_.shape.mass, inv_i = cx_.shape.inverse_inertia();
-      const double k = 2.0 * inv_m + inv_i * (norm2(arm_a) + norm2(arm_b));
-      const double j = -2.0 * u / k;
-      fa.v = fa.v + (j * inv_m) * n;
-      fb.v = fb.v - (j * inv_m) * n;
-      fa.w = fa.w + (j * inv_i) * arm_a;
-      fb.w = fb.w - (j * inv_i) * arm_b;
-      stats_.virial.add(j * dot(n, fa.x - xb));
+      const double j = -2.0 * u / c.inverse_mass;
+      fa.v = fa.v + (j * inv_m) * c.normal;
+      fb.v = fb.v - (j * inv_m) * c.normal;
+      fa.w = fa.w + (j * inv_i) * c.arm_i;
+      fb.w = fb.w - (j * inv_i) * c.arm_j;
+      stats_.virial.add(j * dot(c.normal, fa.x - xb));
       ++stats_.collisions;
     } else {
       // A graze: the search saw the pair closing, this geometry (rounded differently) does
@@ -181,17 +176,23 @@ class ClusterPass {
     predict_pairs_of(b, a, t);
   }
 
-  // Every listed pair of slot s with a partner in the cluster (but `skip`), from t.
-  void predict_pairs_of(std::uint32_t s, std::uint32_t skip, double t) {
-    const std::uint32_t body = bodies_[s];
+  // f(other) for every listed partner `other` of `body` in this cluster.
+  template <class F>
+  void each_partner_in_cluster(std::uint32_t body, F &&f) const {
     const NeighborList &list = cx_.list;
     for (std::uint32_t q = list.pairs_start[body]; q < list.pairs_start[body + 1]; ++q) {
       const ListedPair &pair = list.pairs[list.pair_index[q]];
       const std::uint32_t other = pair.first == body ? pair.second : pair.first;
-      if (cx_.group_of[other] != group_) continue;
+      if (cx_.group_of[other] == group_) f(other);
+    }
+  }
+
+  // Every listed pair of slot s with a partner in the cluster (but `skip`), from t.
+  void predict_pairs_of(std::uint32_t s, std::uint32_t skip, double t) {
+    each_partner_in_cluster(bodies_[s], [&](std::uint32_t other) {
       const std::uint32_t o = slot(other);
       if (o != skip) predict(s, o, t, true);
-    }
+    });
   }
 
   // Past the event cap at t: the cluster's touching pairs solved together there, once.
@@ -210,18 +211,14 @@ class ClusterPass {
     // Touching: closer than twice the search's tolerance (and the rounding of the flights).
     const double reach = 2.0 * cx_.settings.contact.tolerance + 1e-12;
     std::vector<Contact> touching;
-    for (std::uint32_t a = 0; a < count_; ++a) {
-      const std::uint32_t body = bodies_[a];
-      for (std::uint32_t q = cx_.list.pairs_start[body]; q < cx_.list.pairs_start[body + 1]; ++q) {
-        const ListedPair &pair = cx_.list.pairs[cx_.list.pair_index[q]];
-        const std::uint32_t other = pair.first == body ? pair.second : pair.first;
-        if (cx_.group_of[other] != group_ || other < body) continue;
+    for (std::uint32_t a = 0; a < count_; ++a)
+      each_partner_in_cluster(bodies_[a], [&](std::uint32_t other) {
         Contact c;
         double d = 0.0;
-        if (make_contact(scratch, cx_.box, cx_.inverse, cx_.shape, a, slot(other), c, d, reach))
+        if (other > bodies_[a] &&
+            make_contact(scratch, cx_.box, cx_.inverse, cx_.shape, a, slot(other), c, d, reach))
           touching.push_back(c);
-      }
-    }
+      });
     std::sort(touching.begin(), touching.end(), canonical_less);
     resolve_contacts(scratch, cx_.shape, touching, cx_.settings.solver);
     const CollisionTally tally = tally_collisions(touching, {});
@@ -386,7 +383,6 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> reaches(const Context &cx, 
   std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
   const Particles &p = cx.p;
   const NeighborList &list = cx.list;
-  const double h = cx.shape.half_length();
   for (std::size_t g = 0; g < pt.count(); ++g) {
     if (!pt.alive[g]) continue;
     for (const FlownBody &f : pt.flown[g]) {
@@ -398,11 +394,11 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> reaches(const Context &cx, 
         const double moved = p.motion_bound[pair.first] + overrun[pair.first] +
                              p.motion_bound[pair.second] + overrun[pair.second];
         if (moved < pair.recheck_at) continue;
-        const Vec3 r = cx.box.minimum_image(p.position(other) - p.position(f.body), cx.inverse);
-        const SegmentClosest sc = segment_closest_inline(r, p.axis(f.body), h, p.axis(other), h);
-        const double gap = std::sqrt(sc.dist2) - cx.shape.diameter;
-        if (gap - kDistanceSafetyMargin <
-            step_reach(p, overrun, f.body) + step_reach(p, overrun, other))
+        Contact c;
+        double d = 0.0;
+        const double reach =
+            step_reach(p, overrun, f.body) + step_reach(p, overrun, other) + kDistanceSafetyMargin;
+        if (make_contact(p, cx.box, cx.inverse, cx.shape, f.body, other, c, d, reach))
           out.emplace_back(f.body, other);
       }
     }

@@ -81,7 +81,7 @@ struct FlownBody {
 // Scratch kept between steps (per-body arrays over the list's bodies).
 struct ExactScratch {
   std::vector<std::uint32_t> parent;  // union-find over bodies; UINT32_MAX: not involved
-  std::vector<std::uint32_t> label;   // the cluster (root body) of an involved body
+  std::vector<std::uint32_t> label;   // the cluster (its index) of an involved body
   std::vector<double> overrun;        // of a flown body, else 0
 };
 

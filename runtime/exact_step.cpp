@@ -1,4 +1,4 @@
-// The exact method's time step (run.method = "exact", docs/physics.md section 3): the phases of
+// The exact method's time step (run.method = "exact", docs/physics.md section 3b): the phases of
 // simulation.hpp with the collisions at their exact times inside the step instead of at its
 // midpoint. The bodies stay at the step's start until the collisions are known:
 //   1. the motion bounds grow by the step's free flight (grow_bounds), before anything moves
