@@ -70,6 +70,8 @@ class ClusterPass {
     flight_.resize(count);
     moved_.assign(count, 0.0);
     version_.assign(count, 0);
+    collisions_.assign(count, 0);
+    virial_.assign(count, ExactSum());
     for (std::size_t s = 0; s < count; ++s) {
       const std::uint32_t b = bodies[s];
       flight_[s] = {cx_.p.position(b), cx_.p.axis(b), cx_.p.velocity(b), cx_.p.angular_velocity(b),
@@ -158,8 +160,11 @@ class ClusterPass {
       fb.v = fb.v - (j * inv_m) * c.normal;
       fa.w = fa.w + (j * inv_i) * c.arm_i;
       fb.w = fb.w - (j * inv_i) * c.arm_j;
-      stats_.virial.add(j * dot(c.normal, fa.x - xb));
+      const double w = j * dot(c.normal, fa.x - xb);
+      stats_.virial.add(w);
+      virial_[a].add(w);
       ++stats_.collisions;
+      ++collisions_[a];
     } else {
       // A graze: the search saw the pair closing, this geometry (rounded differently) does
       // not. Nothing changes; the pair is searched again from a moment later, so that the
@@ -221,9 +226,14 @@ class ClusterPass {
       });
     std::sort(touching.begin(), touching.end(), canonical_less);
     resolve_contacts(scratch, cx_.shape, touching, cx_.settings.solver);
-    const CollisionTally tally = tally_collisions(touching, {});
-    stats_.virial += tally.virial;
-    stats_.collisions += tally.collisions;
+    for (const Contact &c : touching) {  // c.i has the lower id
+      if (!(c.impulse > 0.0)) continue;
+      const double w = c.impulse * dot(c.normal, c.separation);
+      stats_.virial.add(w);
+      virial_[c.i].add(w);
+      ++stats_.collisions;
+      ++collisions_[c.i];
+    }
     queue_.clear();
     for (std::uint32_t s = 0; s < count_; ++s) {
       flight_[s].v = scratch.velocity(s);
@@ -240,7 +250,8 @@ class ClusterPass {
       fly_to(s, cx_.dt);
       const std::uint32_t b = bodies_[s];
       const Flight &f = flight_[s];
-      flown.push_back({b, f.x, f.e, f.v, f.w, std::max(0.0, moved_[s] - 2.0 * cx_.p.grow[b])});
+      flown.push_back({b, f.x, f.e, f.v, f.w, std::max(0.0, moved_[s] - 2.0 * cx_.p.grow[b]),
+                       collisions_[s], virial_[s]});
     }
   }
 
@@ -251,6 +262,8 @@ class ClusterPass {
   std::vector<Flight> flight_;
   std::vector<double> moved_;  // bound on how far any point moved so far in the step
   std::vector<std::uint32_t> version_;
+  std::vector<long long> collisions_;  // collisions in which the slot has the lower id
+  std::vector<ExactSum> virial_;       // and their virial
   std::vector<Event> queue_;  // a heap, earliest on top
   ExactStats stats_;
 };
@@ -375,40 +388,46 @@ double step_reach(const Particles &p, const std::vector<double> &overrun, std::u
   return 2.0 * p.grow[b] + overrun[b];
 }
 
-// Listed pairs from a flown body with overrun to a body of another cluster (or of none) that
-// could have touched in the step: first the slack with the real bounds, then the distance
-// at the start against the two bodies' reaches. Such a pair's clusters are solved together.
-std::vector<std::pair<std::uint32_t, std::uint32_t>> reaches(const Context &cx, const Partition &pt,
-                                                             const std::vector<double> &overrun) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
-  const Particles &p = cx.p;
-  const NeighborList &list = cx.list;
+// The listed pairs from flown body f (with overrun) to a body of another cluster (or of none,
+// `same(other)` false) that could have touched in the step: first the slack with the real
+// bounds, then the distance at the start against the two bodies' reaches; appended to `out`.
+template <class Same>
+void reaches_from(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+                  const NeighborList &list, const std::vector<double> &overrun,
+                  const FlownBody &f, Same &&same, std::vector<BodyPair> &out) {
+  for (std::uint32_t q = list.pairs_start[f.body]; q < list.pairs_start[f.body + 1]; ++q) {
+    const ListedPair &pair = list.pairs[list.pair_index[q]];
+    const std::uint32_t other = pair.first == f.body ? pair.second : pair.first;
+    if (same(other)) continue;
+    const double moved = p.motion_bound[pair.first] + overrun[pair.first] +
+                         p.motion_bound[pair.second] + overrun[pair.second];
+    if (moved < pair.recheck_at) continue;
+    Contact c;
+    double d = 0.0;
+    const double reach =
+        step_reach(p, overrun, f.body) + step_reach(p, overrun, other) + kDistanceSafetyMargin;
+    if (make_contact(p, box, inverse, shape, f.body, other, c, d, reach))
+      out.emplace_back(f.body, other);
+  }
+}
+
+// Such pairs from every live cluster's flown bodies: their clusters are solved together.
+std::vector<BodyPair> reaches(const Context &cx, const Partition &pt,
+                              const std::vector<double> &overrun) {
+  std::vector<BodyPair> out;
   for (std::size_t g = 0; g < pt.count(); ++g) {
     if (!pt.alive[g]) continue;
-    for (const FlownBody &f : pt.flown[g]) {
-      if (f.overrun <= 0.0) continue;
-      for (std::uint32_t q = list.pairs_start[f.body]; q < list.pairs_start[f.body + 1]; ++q) {
-        const ListedPair &pair = list.pairs[list.pair_index[q]];
-        const std::uint32_t other = pair.first == f.body ? pair.second : pair.first;
-        if (cx.group_of[other] == g) continue;
-        const double moved = p.motion_bound[pair.first] + overrun[pair.first] +
-                             p.motion_bound[pair.second] + overrun[pair.second];
-        if (moved < pair.recheck_at) continue;
-        Contact c;
-        double d = 0.0;
-        const double reach =
-            step_reach(p, overrun, f.body) + step_reach(p, overrun, other) + kDistanceSafetyMargin;
-        if (make_contact(p, cx.box, cx.inverse, cx.shape, f.body, other, c, d, reach))
-          out.emplace_back(f.body, other);
-      }
-    }
+    for (const FlownBody &f : pt.flown[g])
+      if (f.overrun > 0.0)
+        reaches_from(cx.p, cx.box, cx.inverse, cx.shape, cx.list, overrun, f,
+                     [&](std::uint32_t other) { return cx.group_of[other] == g; }, out);
   }
   return out;
 }
 
 // Joins the clusters the pairs reach across, and appends the joined clusters (dead ones
 // marked) for solving; bodies of no cluster come in.
-void regroup(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &joins,
+void regroup(const std::vector<BodyPair> &joins,
              const std::vector<Contact> &candidates, ExactScratch &scratch, Partition &pt) {
   std::vector<std::uint32_t> touched;  // bodies whose cluster is joined
   const auto take = [&](std::uint32_t b) {
@@ -441,43 +460,36 @@ void regroup(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &joins,
   pt.add(members, cands, scratch.label);
 }
 
-}  // namespace
+// Each pair once, the lower index first.
+void distinct_pairs(std::vector<BodyPair> &pairs) {
+  for (auto &[a, b] : pairs)
+    if (a > b) std::swap(a, b);
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+}
 
-ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
-                           const NeighborList &list, const std::vector<Contact> &candidates,
-                           double dt, const ExactSettings &settings, ExactScratch &scratch,
-                           std::vector<FlownBody> &flown) {
-  ExactStats stats;
-  flown.clear();
-  stats.candidates = static_cast<long long>(candidates.size());
-  if (candidates.empty()) return stats;
+// The clusters of the candidates joined by `joins`: scratch's union-find over the bodies in
+// them, and the partition.
+void first_partition(const NeighborList &list, const std::vector<Contact> &candidates,
+                     const std::vector<BodyPair> &joins, ExactScratch &scratch, Partition &pt) {
   const std::size_t n = list.active;
   scratch.parent.resize(n, kNone);
   scratch.label.resize(n, kNone);
   scratch.overrun.resize(n, 0.0);
-  for (const Contact &c : candidates)
-    for (const std::uint32_t b : {c.i, c.j})
-      if (scratch.parent[b] == kNone) scratch.parent[b] = b;
+  const auto take = [&](std::uint32_t b) {
+    if (scratch.parent[b] == kNone) scratch.parent[b] = b;
+  };
+  for (const Contact &c : candidates) take(c.i), take(c.j);
+  for (const auto &[a, b] : joins) take(a), take(b);
   for (const Contact &c : candidates) join(scratch.parent, c.i, c.j);
-  Partition pt;
+  for (const auto &[a, b] : joins) join(scratch.parent, a, b);
   pt.first(scratch.parent, candidates, scratch.label);
+}
 
-  const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
-  for (std::size_t from = 0;;) {
-    solve(cx, pt, from);
-    for (std::size_t g = from; g < pt.count(); ++g) stats += pt.stats[g];
-    for (std::size_t g = 0; g < pt.count(); ++g)
-      if (pt.alive[g])
-        for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = f.overrun;
-    const auto joins = reaches(cx, pt, scratch.overrun);
-    for (std::size_t g = 0; g < pt.count(); ++g)
-      for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = 0.0;
-    if (joins.empty()) break;
-    stats.regrown += static_cast<long long>(joins.size());
-    from = pt.count();
-    regroup(joins, candidates, scratch, pt);
-  }
-  // The final partition's physics; the counts of work include the passes joins discarded.
+// The final partition's physics into `stats` (the counts of work are the passes' own, including
+// those a join discarded), its flown bodies into `flown`; the scratch cleared for the next step.
+void finish(const Partition &pt, ExactStats &stats, ExactScratch &scratch,
+            std::vector<FlownBody> &flown) {
   stats.collisions = stats.fallbacks = 0;
   stats.virial = ExactSum();
   for (std::size_t g = 0; g < pt.count(); ++g) {
@@ -491,7 +503,74 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
     flown.insert(flown.end(), pt.flown[g].begin(), pt.flown[g].end());
   }
   for (const std::uint32_t b : pt.bodies) scratch.parent[b] = scratch.label[b] = kNone;
+}
+
+}  // namespace
+
+ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
+                           const NeighborList &list, const std::vector<Contact> &candidates,
+                           double dt, const ExactSettings &settings, ExactScratch &scratch,
+                           std::vector<FlownBody> &flown) {
+  ExactStats stats;
+  flown.clear();
+  stats.candidates = static_cast<long long>(candidates.size());
+  if (candidates.empty()) return stats;
+  Partition pt;
+  first_partition(list, candidates, {}, scratch, pt);
+  const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
+  for (std::size_t from = 0;;) {
+    solve(cx, pt, from);
+    for (std::size_t g = from; g < pt.count(); ++g) stats += pt.stats[g];
+    for (std::size_t g = 0; g < pt.count(); ++g)
+      if (pt.alive[g])
+        for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = f.overrun;
+    auto joins = reaches(cx, pt, scratch.overrun);
+    distinct_pairs(joins);
+    for (std::size_t g = 0; g < pt.count(); ++g)
+      for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = 0.0;
+    if (joins.empty()) break;
+    stats.regrown += static_cast<long long>(joins.size());
+    from = pt.count();
+    regroup(joins, candidates, scratch, pt);
+  }
+  finish(pt, stats, scratch, flown);
   return stats;
+}
+
+ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
+                        const NeighborList &list, const std::vector<Contact> &candidates,
+                        const std::vector<BodyPair> &joins, double dt,
+                        const ExactSettings &settings, ExactScratch &scratch,
+                        std::vector<FlownBody> &flown) {
+  ExactStats stats;
+  flown.clear();
+  stats.candidates = static_cast<long long>(candidates.size());
+  if (candidates.empty() && joins.empty()) return stats;
+  Partition pt;
+  first_partition(list, candidates, joins, scratch, pt);
+  const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
+  solve(cx, pt, 0);
+  for (std::size_t g = 0; g < pt.count(); ++g) stats += pt.stats[g];
+  finish(pt, stats, scratch, flown);
+  return stats;
+}
+
+std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const Shape &shape,
+                                      const NeighborList &list,
+                                      const std::vector<FlownBody> &flown,
+                                      const std::vector<std::int64_t> &cluster,
+                                      std::vector<double> &overrun) {
+  std::vector<BodyPair> out;
+  overrun.resize(std::max(overrun.size(), list.active), 0.0);
+  for (const FlownBody &f : flown) overrun[f.body] = f.overrun;
+  const Vec3 inverse = box.inverse_length();
+  for (const FlownBody &f : flown)
+    if (f.overrun > 0.0)
+      reaches_from(p, box, inverse, shape, list, overrun, f,
+                   [&](std::uint32_t other) { return cluster[other] == cluster[f.body]; }, out);
+  for (const FlownBody &f : flown) overrun[f.body] = 0.0;
+  distinct_pairs(out);
+  return out;
 }
 
 ExactStats &ExactStats::operator+=(const ExactStats &o) {

@@ -30,6 +30,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "kernels/box.hpp"
@@ -70,13 +71,20 @@ struct ExactStats {
   ExactStats &operator+=(const ExactStats &other);
 };
 
-// A body whose velocity changed in the step: its state at the step's end, and how much further
-// it may have moved than its free flight's bound (grow_bounds) allowed.
+// A body whose velocity changed in the step: its state at the step's end, how much further
+// it may have moved than its free flight's bound (grow_bounds) allowed, and the collisions in
+// which it was the lower-id body with their virial (so that each is counted once, by the
+// owner of that body, on any number of ranks).
 struct FlownBody {
   std::uint32_t body = 0;
   Vec3 x, e, v, w;
   double overrun = 0.0;
+  long long collisions = 0;
+  ExactSum virial;
 };
+
+// Two bodies (indices) whose clusters are solved as one.
+using BodyPair = std::pair<std::uint32_t, std::uint32_t>;
 
 // Scratch kept between steps (per-body arrays over the list's bodies).
 struct ExactScratch {
@@ -89,6 +97,26 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
                            const NeighborList &list, const std::vector<Contact> &candidates,
                            double dt, const ExactSettings &settings, ExactScratch &scratch,
                            std::vector<FlownBody> &flown);
+
+// For several ranks (runtime/exact_ranks.cpp), where the joins of clusters are agreed between
+// ranks: the clusters of the candidates and `joins` solved once each, without looking for
+// overruns that reach other clusters (overrun_reaches does, for the caller). The same bits
+// per cluster as collide_exactly's for the same cluster.
+ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
+                        const NeighborList &list, const std::vector<Contact> &candidates,
+                        const std::vector<BodyPair> &joins, double dt,
+                        const ExactSettings &settings, ExactScratch &scratch,
+                        std::vector<FlownBody> &flown);
+
+// The listed pairs (each once, lower index first) whose bodies lie in different clusters (`cluster`, a
+// label by body; -1 for none) and could have touched in the step given the flown bodies'
+// overruns: the test collide_exactly uses between its clusters. `overrun` is scratch (by body,
+// zeros on entry and on return).
+std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const Shape &shape,
+                                      const NeighborList &list,
+                                      const std::vector<FlownBody> &flown,
+                                      const std::vector<std::int64_t> &cluster,
+                                      std::vector<double> &overrun);
 
 // The flown bodies' end states written over their free flight's, and their motion bounds
 // grown by their overrun (the caller refreshes their motion constants).

@@ -8,12 +8,13 @@
 //   6. flight: every body by dt (fly_step), the bodies whose velocity changed to their own end
 //      states (land_flown)
 //   7, 8 as for the midpoint method.
-// One rank for now: a cluster across ranks needs the records protocol (runtime/
-// cluster_protocol.hpp) for event lists, which is not built yet.
+// On several ranks phase 5 runs in rounds agreed between ranks (runtime/exact_ranks.cpp), and
+// every failure is agreed first, so that all ranks stop together.
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "kernels/rotor_constraints.hpp"
 #include "runtime/simulation.hpp"
@@ -39,13 +40,14 @@ void Simulation::advance_exact(long long count) {
 void Simulation::exact_step() {
   double largest = exact_bounds();           // 1.
   Agreement agreed = agree(largest, false);  // 3.
+  check_flight(agreed.largest, "a velocity is NaN or infinite");
   if (force_rebuild_) {
     agreed.rebuild = true;
     force_rebuild_ = false;
   }
   if (agreed.rebuild) {  // 4.
-    rebuild();
-    largest = exact_bounds();
+    largest = agreed_max(exact_rebuild());
+    check_flight(largest, "a body's flight in one step");
     if (neighbor_list_expired(list_, largest, particles_.size()))
       fail(
           fmt::format("step {}: at run.dt = {:g} a body's flight in one step ({:.4g} D) is more "
@@ -59,14 +61,37 @@ void Simulation::exact_step() {
   tally_exact(detected, stats);
 }
 
-// A NaN or infinite velocity shows here first (the bounds grow by it): stop, never fly on.
+// The bodies' bounds grown by the step's flight; the largest (+infinity for a NaN or an
+// infinite velocity, which shows here first), checked by the caller once agreed.
 double Simulation::exact_bounds() {
   ScopedRegion r(timers_, Region::kIntegrate);
   const double largest = grow_bounds(particles_, advanced());
+  return std::isfinite(largest) ? largest : std::numeric_limits<double>::infinity();
+}
+
+// Phase 4, and the step's flight in the new list's bounds; shadows come without their motion
+// constants.
+double Simulation::exact_rebuild() {
+  rebuild();
+  {
+    ScopedRegion r(timers_, Region::kIntegrate);
+    refresh_motion(particles_, advanced(), scene_.shape, 0.5 * scene_.dt);
+  }
+  return exact_bounds();
+}
+
+// An agreed bound that is not finite stops the run: never fly on with NaN.
+void Simulation::check_flight(double largest, const char *what) {
   if (!std::isfinite(largest))
-    fail(fmt::format("step {}: a velocity is NaN or infinite (motion bound {}) at run.dt = {:g}",
-                     step_ + 1, largest, scene_.dt));
-  return largest;
+    fail(fmt::format("step {}: {} (motion bound {}) at run.dt = {:g}", step_ + 1, what, largest,
+                     scene_.dt));
+}
+
+// The largest of `value` over ranks.
+double Simulation::agreed_max(double value) {
+  if (comm_.size() == 1) return value;
+  ScopedRegion r(timers_, Region::kAgree);
+  return comm_.max("agree", {value})[0];
 }
 
 // Phases 2 and 5. A body whose velocity changed may outrun the flight its bound was grown by;
@@ -81,14 +106,18 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
                                  particles_.grow.data());
       note_detection(detected);
     }
+    double reach = 0.0;
     {
       ScopedRegion r(timers_, Region::kResolve);
-      stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, contacts_, scene_.dt,
-                              exact_settings_, exact_scratch_, flown_);
+      if (comm_.size() > 1) {
+        stats = collide_on_ranks(reach);
+      } else {
+        stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, contacts_,
+                                scene_.dt, exact_settings_, exact_scratch_, flown_);
+        for (const FlownBody &f : flown_)
+          reach = std::max(reach, particles_.motion_bound[f.body] + f.overrun);
+      }
     }
-    double reach = 0.0;
-    for (const FlownBody &f : flown_)
-      reach = std::max(reach, particles_.motion_bound[f.body] + f.overrun);
     if (!neighbor_list_expired(list_, reach, particles_.size())) return detected;
     if (attempt > 0)
       fail(
@@ -97,8 +126,7 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
                       "smaller run.dt or a larger run.skin",
                       step_ + 1, scene_.dt, reach, scene_.skin));
     ++exact_.rebuilt_in_step;
-    rebuild();
-    exact_bounds();
+    exact_rebuild();  // the same bounds as before the rebuild: checked then
   }
 }
 

@@ -124,8 +124,9 @@ void add_timers(nlohmann::json &summary, Simulation &sim) {
 nlohmann::json traffic_json(Communicator &comm, long long steps) {
   nlohmann::json traffic = nlohmann::json::object();
   const double rank_steps = static_cast<double>(comm.size()) * std::max<long long>(1, steps);
-  for (const char *name : {"agree", "migrate", "shadows", "contacts", "results", "observe",
-                           "kinetic_energy", "checkpoint", "balance"}) {
+  for (const char *name :
+       {"agree", "migrate", "shadows", "contacts", "results", "exact_pieces", "exact_results",
+        "exact_round", "observe", "kinetic_energy", "checkpoint", "balance"}) {
     const auto it = comm.traffic().find(name);
     const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
     const long long messages = comm.sum("summary", c.messages);
@@ -174,10 +175,20 @@ nlohmann::json spanning_json(Simulation &sim) {
           {"from_results", comm.sum("summary", s.from_results)}};
 }
 
-// The exact method's work since this process started (one rank for now): totals and per step.
+// The exact method's work since this process started, summed over ranks (the largest cluster:
+// the largest on any rank): totals and per step. Collisions and clusters are counted once; the
+// work (events, searches) of a cluster across ranks is counted by every rank that solved it.
 nlohmann::json exact_json(Simulation &sim) {
-  const ExactRecord &r = sim.exact_record();
-  const ExactStats &t = r.totals;
+  Communicator &comm = sim.comm();
+  const ExactRecord &mine = sim.exact_record();
+  ExactRecord r = mine;
+  ExactStats &t = r.totals;
+  for (long long *v : {&t.candidates, &t.clusters, &t.collisions, &t.events, &t.searches,
+                       &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown,
+                       &t.fallbacks, &t.grazes})
+    *v = comm.sum("summary", *v);
+  t.largest_cluster = static_cast<long long>(
+      comm.max("summary", {static_cast<double>(mine.totals.largest_cluster)})[0]);
   const double steps = r.steps > 0 ? static_cast<double>(r.steps) : 1.0;
   const auto per_step = [&](long long v) { return static_cast<double>(v) / steps; };
   return {{"steps", r.steps},

@@ -116,11 +116,6 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
         {fmt::format("--balance-interval must be at least 1, got {}", balance_.interval)});
   decompose(all, parallel);
   keep_owned(all);
-  if (scene_.method == kExact && comm_.size() > 1)
-    throw SceneError({fmt::format(
-        "run.method = \"exact\" runs on one rank for now ({} ranks were started): a cluster "
-        "across ranks needs its events exchanged, which is not built yet",
-        comm_.size())});
 }
 
 void Simulation::fail(const std::string &message) { throw PhysicsError(message); }
@@ -321,7 +316,7 @@ Simulation::Agreement Simulation::agree(double largest_bound, bool boundary) {
   }
   stop_agreed_ = flags[4] > 0.0;
   report_problems(flags);
-  return {neighbor_list_expired(list_, flags[0], particles_.size()), flags[5] > 0.0};
+  return {neighbor_list_expired(list_, flags[0], particles_.size()), flags[5] > 0.0, flags[0]};
 }
 
 // Contacts at the midpoint; an overlap beyond the tolerance is kept for the agreement.

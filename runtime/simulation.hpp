@@ -45,9 +45,13 @@
 #include "runtime/cluster_protocol.hpp"
 #include "runtime/comm.hpp"
 #include "runtime/domain.hpp"
+#include "runtime/exact_protocol.hpp"
 #include "runtime/scene.hpp"
 
 namespace hardrod {
+
+struct ExactComponents;
+struct ExactRound;
 
 class PhysicsError : public std::runtime_error {
  public:
@@ -218,6 +222,7 @@ class Simulation {
   struct Agreement {
     bool rebuild = false;   // some rank's pair list expired
     bool boundary = false;  // some rank has a contact across a rank boundary
+    double largest = 0.0;   // the largest motion bound on any rank
   };
 
   // Construction (simulation.cpp, decomposition.cpp, balance_check.cpp).
@@ -250,9 +255,20 @@ class Simulation {
   void advance_exact(long long count);
   void exact_step();
   double exact_bounds();                               // 1: the step's flight in the bounds
+  double exact_rebuild();  // 4, then 1 again
+  void check_flight(double largest, const char *what);
+  double agreed_max(double value);
   DetectionStats exact_collisions(ExactStats &stats);  // 2 and 5
   void exact_flight();                                 // 6
   void tally_exact(const DetectionStats &detected, const ExactStats &stats);
+  // Phase 5 of the exact step on several ranks (runtime/exact_ranks.cpp).
+  ExactStats collide_on_ranks(double &reach);
+  void solve_local_components(ExactRound &round, const ExactComponents &cc);
+  void solve_spanning_components(ExactRound &round, const ExactComponents &cc);
+  ExactPieces exchange_pieces(const ExactRound &round, const ExactComponents &cc);
+  void exchange_exact_results(ExactRound &round, const std::vector<ExactResult> &results);
+  void settle_exact(ExactRound &round, std::uint32_t body, const ExactResult &result);
+  ExactStats exact_counts(const ExactRound &round) const;
   void restore_constraints();  // 7
   void apply_thermostat();     // 7
   // 8, balance_check.cpp. Collective, every balance_.interval steps: compares the ranks'
@@ -314,6 +330,7 @@ class Simulation {
   ExactSettings exact_settings_;
   ExactScratch exact_scratch_;
   std::vector<FlownBody> flown_;
+  ExactProblem exact_problem_;  // the spanning clusters solved here (exact_ranks.cpp)
   ExactRecord exact_;
   // Scratch of resolve_across_ranks, kept between steps so that a step allocates nothing:
   // by local index, whether a body got its velocities this step (all 0 between calls); the

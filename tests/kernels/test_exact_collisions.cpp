@@ -1,15 +1,21 @@
 // The exact method's collisions within one step (kernels/exact_collisions.hpp), on bodies set
 // up by hand: the contact time and the impulse of a head-on pair against the closed form, the
 // virial at contact, a chain whose velocity changes reach bodies outside the first clusters,
-// and the event cap's fallback.
+// the event cap's fallback, and the pieces several ranks use (collide_once, overrun_reaches)
+// against the one-rank loop.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <numeric>
 
 #include "kernels/contact_detection.hpp"
 #include "kernels/exact_collisions.hpp"
 #include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
+#include "runtime/simulation.hpp"
+#include "tests/test_scenes.hpp"
 
 namespace hardrod {
 namespace {
@@ -139,6 +145,90 @@ TEST(ExactCollisions, RodsKeepMomentumAngularMomentumAndEnergy) {
   EXPECT_LT(norm(l1 - l0), 1e-12);
   EXPECT_NEAR(e1, e0, 1e-14);
   EXPECT_LT(s.stats.root_iterations, 20);
+}
+
+
+// The clusters' labels (the root of a union-find, the smallest index) of candidates and joins.
+std::vector<std::int64_t> labels(std::size_t n, const std::vector<Contact> &candidates,
+                                 const std::vector<BodyPair> &joins) {
+  std::vector<std::uint32_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0u);
+  const auto root = [&](std::uint32_t a) {
+    while (parent[a] != a) a = parent[a];
+    return a;
+  };
+  const auto join = [&](std::uint32_t a, std::uint32_t b) {
+    a = root(a), b = root(b);
+    parent[std::max(a, b)] = std::min(a, b);
+  };
+  std::vector<char> in(n, 0);
+  for (const Contact &c : candidates) join(c.i, c.j), in[c.i] = in[c.j] = 1;
+  for (const auto &[a, b] : joins) join(a, b), in[a] = in[b] = 1;
+  std::vector<std::int64_t> label(n, -1);
+  for (std::uint32_t b = 0; b < n; ++b)
+    if (in[b]) label[b] = root(b);
+  return label;
+}
+
+bool same_bits(const FlownBody &a, const FlownBody &b) {
+  const auto eq = [](const Vec3 &x, const Vec3 &y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  return a.body == b.body && eq(a.x, b.x) && eq(a.e, b.e) && eq(a.v, b.v) && eq(a.w, b.w) &&
+         std::memcmp(&a.overrun, &b.overrun, sizeof a.overrun) == 0 &&
+         a.collisions == b.collisions && a.virial.raw() == b.virial.raw();
+}
+
+// Several ranks solve a step in rounds: every cluster once (collide_once), the overruns'
+// reaches (overrun_reaches) joined, again until none. On one rank that must end where
+// collide_exactly's own loop ends, bit for bit: a Newton's cradle (a join), and a hot, dense
+// hard-sphere system at a long step (many clusters, several joins).
+TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
+  const Shape sphere{.length = 0.0};
+  Particles cradle = spheres_on_x({5.0, 6.0005, 7.03, 8.2}, {1.0, 0.0, 0.0, -0.5});
+  // A hot gas relaxed by the exact method, then one step four times longer (8 joins).
+  Scene hot = testing::hard_spheres(10, 0.30, 1e-3);
+  hot.method = kExact;
+  hot.temperature = 25.0;
+  Simulation relax(hot);
+  relax.advance(100);
+  const struct {
+    Particles p;
+    Box box;
+    double dt;
+  } cases[] = {{cradle, Box{{30.0, 20.0, 20.0}}, 0.05}, {relax.particles(), hot.box, 4e-3}};
+  long long joined = 0;
+  for (const auto &c : cases) {
+    Particles p = c.p;
+    NeighborList list;
+    list.skin = 1.0;
+    build_neighbor_list(list, p, p.size(), c.box, sphere);
+    refresh_motion(p, p.size(), sphere, 0.5 * c.dt);
+    grow_bounds(p, p.size());
+    std::vector<Contact> candidates;
+    detect_contacts(p, c.box, sphere, list, candidates, p.grow.data());
+    ExactScratch scratch;
+    std::vector<FlownBody> kernel, rounds;
+    const ExactStats whole =
+        collide_exactly(p, c.box, sphere, list, candidates, c.dt, {}, scratch, kernel);
+    std::vector<BodyPair> joins;
+    std::vector<double> overrun;
+    for (int round = 0; round < 100; ++round) {
+      collide_once(p, c.box, sphere, list, candidates, joins, c.dt, {}, scratch, rounds);
+      const auto more = overrun_reaches(p, c.box, sphere, list, rounds,
+                                        labels(p.size(), candidates, joins), overrun);
+      if (more.empty()) break;
+      joins.insert(joins.end(), more.begin(), more.end());
+    }
+    EXPECT_EQ(static_cast<long long>(joins.size()), whole.regrown);
+    joined += whole.regrown;
+    const auto by_body = [](const FlownBody &a, const FlownBody &b) { return a.body < b.body; };
+    std::sort(kernel.begin(), kernel.end(), by_body);
+    std::sort(rounds.begin(), rounds.end(), by_body);
+    ASSERT_EQ(kernel.size(), rounds.size());
+    EXPECT_GT(kernel.size(), 2u);
+    for (std::size_t k = 0; k < kernel.size(); ++k)
+      EXPECT_TRUE(same_bits(kernel[k], rounds[k])) << "body " << kernel[k].body;
+  }
+  EXPECT_GE(joined, 2);
 }
 
 }  // namespace

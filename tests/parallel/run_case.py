@@ -85,6 +85,14 @@ def main():
             if summary[key] != ref[key]:
                 print(f"FAILED: {key} = {summary[key]}, the 1 x 1 run has {ref[key]}")
                 return 1
+        if "exact" in summary:
+            # The exact method's clusters are the same on any ranks x threads, and each
+            # candidate, cluster and join is counted once.
+            for key in ("candidates", "clusters", "regrown", "largest_cluster"):
+                if summary["exact"][key] != ref["exact"][key]:
+                    print(f"FAILED: exact.{key} = {summary['exact'][key]}, the 1 x 1 run has "
+                          f"{ref['exact'][key]}")
+                    return 1
         if summary["collisions"] < 100:
             print("FAILED: too few collisions for a meaningful comparison")
             return 1
@@ -95,7 +103,14 @@ def main():
             spanning["from_results"] < args.min_from_results:
         print("FAILED: too few bodies took their velocities from another rank's results")
         return 1
-    if args.ranks == 2 and args.reference:
+    if args.ranks > 1 and summary.get("method") == "exact":
+        # Every step sends its spanning clusters' pieces; some must have crossed.
+        pieces = summary["communication_per_rank"]["exact_pieces"]["bytes_per_step"]
+        print(f"exact method: {pieces:.0f} bytes of cluster pieces per step and rank")
+        if not pieces > 0.0:
+            print("FAILED: no cluster crossed a rank boundary")
+            return 1
+    elif args.ranks == 2 and args.reference:
         # One partner: the contact exchanges ran in the steps where a contact crossed the rank
         # boundary and were skipped in the others. Both paths must have been compared above.
         per_step = summary["communication_per_rank"]["contacts"]["messages_per_step"]

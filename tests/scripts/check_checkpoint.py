@@ -197,14 +197,18 @@ def mode_resume(r: Runner):
     r.run(["resume", str(d)])
     compare_runs(straight, d)
     # The exact method keeps no state between steps beyond the bodies: stopped, resumed on
-    # other threads, the same bits as straight through.
+    # other threads and ranks, the same bits as straight through.
     exact = ["--set", "run.method=exact", "--set", "run.dt=1e-3"]
     exact_straight = r.work / "exact-straight"
     r.run(["run", str(r.scene), "--out", str(exact_straight), "--set", "run.steps=600"] + exact + EXTRA)
-    d = r.work / "exact-resumed"
-    r.run(["run", str(r.scene), "--out", str(d), "--set", "run.steps=300"] + exact + EXTRA, 1, 1)
-    r.run(["resume", str(d), "--set", "run.steps=600"], 1, 2)
-    compare_runs(exact_straight, d)
+    exact_cases = [("exact-1x1-then-1x2", 1, 1, 1, 2), ("exact-1x1-then-3x1", 1, 1, 3, 1),
+                   ("exact-2x1-then-1x1", 2, 1, 1, 1)]
+    for name, ranks_a, threads_a, ranks_b, threads_b in exact_cases[:None if r.mpirun else 1]:
+        d = r.work / name
+        r.run(["run", str(r.scene), "--out", str(d), "--set", "run.steps=300"] + exact + EXTRA,
+              ranks_a, threads_a)
+        r.run(["resume", str(d), "--set", "run.steps=600"], ranks_b, threads_b)
+        compare_runs(exact_straight, d, same_ranks=ranks_a == 1 and ranks_b == 1)
 
 
 def mode_signals(r: Runner):

@@ -1,0 +1,225 @@
+#include "runtime/exact_protocol.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <type_traits>
+
+#include "runtime/comm.hpp"
+
+namespace hardrod {
+
+namespace {
+
+// A count, then the elements' bytes (the records are plain data, the same on every rank).
+template <class T>
+void pack_array(std::vector<char> &buf, const std::vector<T> &v) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  pack(buf, static_cast<std::uint64_t>(v.size()));
+  const auto *p = reinterpret_cast<const char *>(v.data());
+  buf.insert(buf.end(), p, p + v.size() * sizeof(T));
+}
+
+template <class T>
+void unpack_array(const std::vector<char> &buf, std::size_t &off, std::vector<T> &out) {
+  const auto n = static_cast<std::size_t>(unpack<std::uint64_t>(buf, off));
+  const std::size_t first = out.size();
+  out.resize(first + n);
+  std::memcpy(static_cast<void *>(out.data() + first), buf.data() + off, n * sizeof(T));
+  off += n * sizeof(T);
+}
+
+std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
+  while (parent[a] != a) a = parent[a] = parent[parent[a]];
+  return a;
+}
+
+}  // namespace
+
+void ExactPieces::tidy() {
+  std::sort(bodies.begin(), bodies.end(), [](const Body &a, const Body &b) {
+    return a.id != b.id ? a.id < b.id : a.degree < b.degree;
+  });
+  bodies.erase(std::unique(bodies.begin(), bodies.end(),
+                           [](const Body &a, const Body &b) { return a.id == b.id; }),
+               bodies.end());
+  std::sort(edges.begin(), edges.end(),
+            [](const Edge &x, const Edge &y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
+  edges.erase(std::unique(edges.begin(), edges.end(),
+                          [](const Edge &x, const Edge &y) { return x.a == y.a && x.b == y.b; }),
+              edges.end());
+  std::sort(listed.begin(), listed.end());
+  listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
+}
+
+std::uint32_t ExactPieces::at(std::int64_t id) const {
+  const auto it = std::lower_bound(bodies.begin(), bodies.end(), id,
+                                   [](const Body &b, std::int64_t v) { return b.id < v; });
+  if (it == bodies.end() || it->id != id) return static_cast<std::uint32_t>(bodies.size());
+  return static_cast<std::uint32_t>(it - bodies.begin());
+}
+
+void read_exact_state(const Particles &p, std::size_t i, double (&s)[kExactState]) {
+  const double v[kExactState] = {p.x[i],  p.y[i],  p.z[i],  p.ex[i], p.ey[i], p.ez[i],  p.vx[i],
+                                 p.vy[i], p.vz[i], p.wx[i], p.wy[i], p.wz[i], p.grow[i]};
+  std::copy(std::begin(v), std::end(v), s);
+}
+
+void write_exact_state(Particles &p, std::size_t i, const double (&s)[kExactState]) {
+  p.set_position(i, {s[0], s[1], s[2]});
+  p.set_axis(i, {s[3], s[4], s[5]});
+  p.set_velocity(i, {s[6], s[7], s[8]});
+  p.set_angular_velocity(i, {s[9], s[10], s[11]});
+  p.grow[i] = s[12];
+}
+
+void pack_piece(std::vector<char> &buf, const std::vector<ExactPieces::Body> &bodies,
+                const std::vector<ExactPieces::Edge> &edges,
+                const std::vector<ExactPieces::Pair> &listed) {
+  pack_array(buf, bodies);
+  pack_array(buf, edges);
+  pack_array(buf, listed);
+}
+
+void unpack_pieces(const std::vector<char> &buf, ExactPieces &r) {
+  for (std::size_t off = 0; off < buf.size();) {
+    unpack_array(buf, off, r.bodies);
+    unpack_array(buf, off, r.edges);
+    unpack_array(buf, off, r.listed);
+  }
+}
+
+ExactClusters exact_clusters(const ExactPieces &r) {
+  const auto n = static_cast<std::uint32_t>(r.bodies.size());
+  std::vector<std::uint32_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0u);
+  std::vector<std::uint32_t> degree(n, 0);
+  for (const ExactPieces::Edge &e : r.edges) {
+    const std::uint32_t a = r.at(e.a), b = r.at(e.b);
+    ++degree[a], ++degree[b];
+    const std::uint32_t ra = root(parent, a), rb = root(parent, b);
+    if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);  // the lowest id is the root
+  }
+  ExactClusters ec;
+  ec.cluster_of.assign(n, kDegreeUnknown);
+  std::vector<std::uint32_t> size;
+  for (std::uint32_t b = 0; b < n; ++b) {
+    const std::uint32_t rb = root(parent, b);
+    if (rb == b) {
+      ec.cluster_of[b] = static_cast<std::uint32_t>(size.size());
+      size.push_back(0);
+      ec.complete.push_back(1);
+    } else {
+      ec.cluster_of[b] = ec.cluster_of[rb];
+    }
+    ++size[ec.cluster_of[b]];
+    const ExactPieces::Body &body = r.bodies[b];
+    if (body.degree == kDegreeUnknown || body.degree != degree[b])
+      ec.complete[ec.cluster_of[b]] = 0;
+  }
+  ec.start.assign(size.size() + 1, 0);
+  for (std::size_t c = 0; c < size.size(); ++c) ec.start[c + 1] = ec.start[c] + size[c];
+  ec.members.resize(n);
+  std::vector<std::uint32_t> at(ec.start.begin(), ec.start.end() - 1);
+  for (std::uint32_t b = 0; b < n; ++b) ec.members[at[ec.cluster_of[b]]++] = b;
+  return ec;
+}
+
+void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vector<char> &take,
+                   ExactProblem &problem) {
+  std::vector<std::uint32_t> work(r.bodies.size(), kDegreeUnknown);  // piece body -> work
+  problem.piece.clear();
+  for (std::size_t c = 0; c < ec.count(); ++c) {
+    if (!take[c]) continue;
+    for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k) {
+      work[ec.members[k]] = static_cast<std::uint32_t>(problem.piece.size());
+      problem.piece.push_back(ec.members[k]);
+    }
+  }
+  const std::size_t n = problem.piece.size();
+  Particles &p = problem.bodies;
+  p.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const ExactPieces::Body &b = r.bodies[problem.piece[k]];
+    p.id[k] = b.id;
+    write_exact_state(p, k, b.state);
+    p.motion_bound[k] = 0.0;
+  }
+  problem.candidates.clear();
+  problem.joins.clear();
+  for (const ExactPieces::Edge &e : r.edges) {
+    const std::uint32_t a = work[r.at(e.a)], b = work[r.at(e.b)];
+    if (a == kDegreeUnknown) continue;  // a cluster not taken (its edges stay inside it)
+    if (e.candidate) {
+      Contact c;
+      c.i = a, c.j = b, c.id_i = e.a, c.id_j = e.b;
+      problem.candidates.push_back(c);
+    } else {
+      problem.joins.emplace_back(a, b);
+    }
+  }
+  // The listed pairs inside a taken cluster, indexed by body as build_neighbor_list does.
+  NeighborList &list = problem.list;
+  list.pairs.clear();
+  for (const ExactPieces::Pair &lp : r.listed) {
+    const std::uint32_t pa = r.at(lp.a), pb = r.at(lp.b);
+    if (pa == r.bodies.size() || pb == r.bodies.size()) continue;
+    if (work[pa] == kDegreeUnknown || ec.cluster_of[pa] != ec.cluster_of[pb]) continue;
+    ListedPair pair;
+    pair.first = work[pa];
+    pair.second = work[pb];
+    list.pairs.push_back(pair);
+  }
+  list.active = list.bodies = n;
+  list.pairs_start.assign(n + 1, 0);
+  for (const ListedPair &pair : list.pairs) ++list.pairs_start[pair.first + 1], ++list.pairs_start[pair.second + 1];
+  for (std::size_t k = 0; k < n; ++k) list.pairs_start[k + 1] += list.pairs_start[k];
+  list.pair_index.resize(2 * list.pairs.size());
+  std::vector<std::uint32_t> at(list.pairs_start.begin(), list.pairs_start.end() - 1);
+  for (std::uint32_t q = 0; q < list.pairs.size(); ++q) {
+    list.pair_index[at[list.pairs[q].first]++] = q;
+    list.pair_index[at[list.pairs[q].second]++] = q;
+  }
+}
+
+ExactResult exact_result(std::int64_t id, std::int64_t label, std::uint32_t size,
+                         const FlownBody *flown) {
+  ExactResult r;
+  r.id = id;
+  r.label = label;
+  r.size = size;
+  if (flown == nullptr) return r;
+  r.flown = 1;
+  const Vec3 *parts[4] = {&flown->x, &flown->e, &flown->v, &flown->w};
+  for (int k = 0; k < 4; ++k) {
+    r.state[3 * k] = parts[k]->x;
+    r.state[3 * k + 1] = parts[k]->y;
+    r.state[3 * k + 2] = parts[k]->z;
+  }
+  r.overrun = flown->overrun;
+  r.collisions = flown->collisions;
+  r.virial = flown->virial.raw();
+  r.poisoned = flown->virial.poisoned();
+  return r;
+}
+
+FlownBody flown_body(const ExactResult &r, std::uint32_t body) {
+  FlownBody f;
+  f.body = body;
+  Vec3 *parts[4] = {&f.x, &f.e, &f.v, &f.w};
+  for (int k = 0; k < 4; ++k) *parts[k] = {r.state[3 * k], r.state[3 * k + 1], r.state[3 * k + 2]};
+  f.overrun = r.overrun;
+  f.collisions = r.collisions;
+  f.virial = ExactSum::from_raw(r.virial, r.poisoned != 0);
+  return f;
+}
+
+void pack_results(std::vector<char> &buf, const std::vector<ExactResult> &results) {
+  pack_array(buf, results);
+}
+
+void unpack_results(const std::vector<char> &buf, std::vector<ExactResult> &out) {
+  for (std::size_t off = 0; off < buf.size();) unpack_array(buf, off, out);
+}
+
+}  // namespace hardrod

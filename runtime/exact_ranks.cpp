@@ -1,0 +1,346 @@
+// Phase 5 of the exact step (runtime/exact_step.cpp) on several ranks: the step's clusters
+// solved where their bodies live, in rounds agreed by all ranks.
+//
+// Each rank detects the candidates of the bodies it owns (the pair list keeps the pairs with an
+// owned body), so a cluster's edges are the union of its owners'. A round:
+//   1. the components of this rank's edges (candidates and the joins agreed so far) over the
+//      bodies it advances; a component none of whose bodies other ranks hold is a whole
+//      cluster and is solved here (collide_once); the others are *spanning*;
+//   2. each spanning component goes as a piece (bodies at the step's start, edges, the owned
+//      bodies' listed pairs and degrees) to every owner and holder of its bodies; a rank merges
+//      what it gets with its own and solves every complete merged cluster that has a body it
+//      advances, on a scratch problem: the same bodies, edges and pairs give the same bits on
+//      every rank; on more than two ranks a results exchange sends them where a cluster
+//      arrived in part (the argument of runtime/spanning_clusters.cpp carries over: edges, like
+//      contacts, are known to the owners of both bodies);
+//   3. the overrun check (overrun_reaches) over this rank's listed pairs: the joins it finds
+//      are found by the owners of both bodies, since both hold both bodies' results;
+//   4. one max-reduction: new joins anywhere, a body left unresolved, the largest reach. With
+//      joins, the next round solves again the components they changed.
+// This is the kernel's own loop (collide_exactly: solve, check, join, solve the joined again)
+// with ranks in it, so the final clusters are the one-rank run's and so are the bits. Each
+// collision and its virial is counted by the owner of its lower-id body (FlownBody); the
+// counts of work (searches, events) are each rank's, so a cluster solved on two ranks counts
+// twice.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <limits>
+
+#include "runtime/exact_protocol.hpp"
+#include "runtime/simulation.hpp"
+
+namespace hardrod {
+
+namespace {
+
+constexpr std::uint32_t kNoBody = std::numeric_limits<std::uint32_t>::max();
+
+std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
+  while (parent[a] != a) a = parent[a] = parent[parent[a]];
+  return a;
+}
+
+}  // namespace
+
+// The connected components of a round's edges over the advanced bodies, each with its
+// bodies in index order.
+struct ExactComponents {
+  std::vector<std::uint32_t> comp_of;  // by body; kNoBody: in no edge
+  std::vector<std::uint32_t> start{0}, bodies;
+  std::vector<char> spanning;  // by component: a body other ranks hold
+
+  std::size_t count() const { return spanning.size(); }
+};
+
+// What the rounds of one step carry from round to round.
+struct ExactRound {
+  std::vector<BodyPair> joins;         // agreed so far (this rank's, local indices)
+  std::vector<std::int64_t> label;     // by body: its cluster's lowest id (-1: none yet)
+  std::vector<std::uint32_t> size;     // by body: its cluster's size
+  std::vector<FlownBody> flown;        // this round's, by local index
+  std::vector<FlownBody> previous;     // the last round's
+  std::vector<std::uint32_t> prev_at;  // by body: its place in `previous` (kNoBody: none)
+  std::vector<char> dirty;             // by body: in a join of the last round
+  ExactStats work;                     // every round's passes
+  long long unresolved = 0;            // advanced bodies of spanning clusters left unsolved
+};
+
+namespace {
+
+ExactComponents components(std::size_t n, const std::vector<Contact> &candidates,
+                           const std::vector<BodyPair> &joins, const std::vector<char> &shared) {
+  std::vector<std::uint32_t> parent(n, kNoBody);
+  const auto edge = [&](std::uint32_t a, std::uint32_t b) {
+    if (parent[a] == kNoBody) parent[a] = a;
+    if (parent[b] == kNoBody) parent[b] = b;
+    a = root(parent, a);
+    b = root(parent, b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  };
+  for (const Contact &c : candidates) edge(c.i, c.j);
+  for (const auto &[a, b] : joins) edge(a, b);
+  ExactComponents cc;
+  cc.comp_of.assign(n, kNoBody);
+  std::vector<std::uint32_t> size;
+  for (std::uint32_t b = 0; b < n; ++b) {
+    if (parent[b] == kNoBody) continue;
+    const std::uint32_t r = root(parent, b);
+    if (r == b) {
+      cc.comp_of[b] = static_cast<std::uint32_t>(size.size());
+      size.push_back(0);
+      cc.spanning.push_back(0);
+    } else {
+      cc.comp_of[b] = cc.comp_of[r];
+    }
+    ++size[cc.comp_of[b]];
+    if (shared[b]) cc.spanning[cc.comp_of[b]] = 1;
+  }
+  cc.start.assign(size.size() + 1, 0);
+  for (std::size_t c = 0; c < size.size(); ++c) cc.start[c + 1] = cc.start[c] + size[c];
+  cc.bodies.resize(cc.start.back());
+  std::vector<std::uint32_t> at(cc.start.begin(), cc.start.end() - 1);
+  for (std::uint32_t b = 0; b < n; ++b)
+    if (cc.comp_of[b] != kNoBody) cc.bodies[at[cc.comp_of[b]]++] = b;
+  return cc;
+}
+
+}  // namespace
+
+// Phase 5 on several ranks; `reach` gets the largest flight of a flown body on any rank (the
+// list expires if it passes half the skin: the caller solves the step again on a new list).
+ExactStats Simulation::collide_on_ranks(double &reach) {
+  const std::size_t n = advanced();
+  ExactRound round;
+  round.label.assign(n, -1);
+  round.size.assign(n, 0);
+  round.prev_at.assign(n, kNoBody);
+  round.dirty.assign(n, 1);
+  std::vector<double> overrun_scratch;
+  for (int k = 0;; ++k) {
+    const ExactComponents cc = components(n, contacts_, round.joins, shared_);
+    std::fill(round.label.begin(), round.label.end(), -1);
+    round.flown.clear();
+    solve_local_components(round, cc);
+    solve_spanning_components(round, cc);
+    std::vector<BodyPair> joins = overrun_reaches(particles_, scene_.box, scene_.shape, list_,
+                                                  round.flown, round.label, overrun_scratch);
+    double largest = 0.0;
+    for (const FlownBody &f : round.flown)
+      largest = std::max(largest, particles_.motion_bound[f.body] + f.overrun);
+    std::vector<double> flags{static_cast<double>(joins.size()),
+                              static_cast<double>(round.unresolved), largest};
+    {
+      ScopedRegion r(timers_, Region::kAgree);
+      flags = comm_.max("exact_round", flags);
+    }
+    if (flags[1] > 0.0)
+      fail(fmt::format("step {}: a cluster of the exact method that spans ranks reached a rank "
+                       "only in part ({} bodies left unsolved)",
+                       step_ + 1, flags[1]));
+    if (flags[0] == 0.0) {
+      reach = flags[2];
+      break;
+    }
+    for (const auto &[a, b] : joins)  // each join counted by the owner of its lower-id body
+      round.work.regrown += (particles_.id[a] < particles_.id[b] ? a : b) < owned_;
+    std::fill(round.dirty.begin(), round.dirty.end(), 0);
+    for (const auto &[a, b] : joins) round.dirty[a] = round.dirty[b] = 1;
+    round.joins.insert(round.joins.end(), joins.begin(), joins.end());
+    round.previous.swap(round.flown);
+    std::fill(round.prev_at.begin(), round.prev_at.end(), kNoBody);
+    for (std::uint32_t q = 0; q < round.previous.size(); ++q)
+      round.prev_at[round.previous[q].body] = q;
+  }
+  flown_ = round.flown;
+  return exact_counts(round);
+}
+
+// The components no other rank holds a body of: solved here (those the last round's joins did
+// not change keep their results).
+void Simulation::solve_local_components(ExactRound &round, const ExactComponents &cc) {
+  std::vector<char> solve(cc.count(), 0);
+  for (std::size_t c = 0; c < cc.count(); ++c) {
+    if (cc.spanning[c]) continue;
+    const std::uint32_t *first = cc.bodies.data() + cc.start[c];
+    const std::uint32_t *last = cc.bodies.data() + cc.start[c + 1];
+    solve[c] = std::any_of(first, last, [&](std::uint32_t b) { return round.dirty[b] != 0; });
+    std::int64_t lowest = std::numeric_limits<std::int64_t>::max();  // the cluster's label
+    for (const std::uint32_t *b = first; b != last; ++b)
+      lowest = std::min(lowest, particles_.id[*b]);
+    for (const std::uint32_t *b = first; b != last; ++b) {
+      round.label[*b] = lowest;
+      round.size[*b] = static_cast<std::uint32_t>(last - first);
+      if (!solve[c] && round.prev_at[*b] != kNoBody)
+        round.flown.push_back(round.previous[round.prev_at[*b]]);
+    }
+  }
+  std::vector<Contact> candidates;
+  for (const Contact &ct : contacts_)
+    if (solve[cc.comp_of[ct.i]]) candidates.push_back(ct);
+  std::vector<BodyPair> joins;
+  for (const BodyPair &j : round.joins)
+    if (solve[cc.comp_of[j.first]]) joins.push_back(j);
+  std::vector<FlownBody> flown;
+  round.work += collide_once(particles_, scene_.box, scene_.shape, list_, candidates, joins,
+                             scene_.dt, exact_settings_, exact_scratch_, flown);
+  round.flown.insert(round.flown.end(), flown.begin(), flown.end());
+}
+
+// The spanning components: pieces to the owners and holders of their bodies, the complete
+// merged clusters with a body advanced here solved here, results where needed.
+void Simulation::solve_spanning_components(ExactRound &round, const ExactComponents &cc) {
+  ExactPieces pieces = exchange_pieces(round, cc);
+  const ExactClusters ec = exact_clusters(pieces);
+  std::vector<std::uint32_t> where(pieces.bodies.size(), kNoBody);  // local index if advanced
+  for (std::size_t b = 0; b < pieces.bodies.size(); ++b) {
+    const auto it = index_.find(pieces.bodies[b].id);
+    if (it != index_.end() && it->second < advanced()) where[b] = it->second;
+  }
+  std::vector<char> take(ec.count(), 0);
+  for (std::size_t c = 0; c < ec.count(); ++c) {
+    if (!ec.complete[c]) continue;
+    const std::uint32_t lowest = ec.members[ec.start[c]];
+    for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k)
+      take[c] = take[c] || where[ec.members[k]] != kNoBody;
+    if (results_exchange_) take[c] = take[c] && where[lowest] < owned_;
+  }
+  ExactProblem &problem = exact_problem_;
+  exact_problem(pieces, ec, take, problem);
+  std::vector<FlownBody> flown;
+  round.work += collide_once(problem.bodies, scene_.box, scene_.shape, problem.list,
+                             problem.candidates, problem.joins, scene_.dt, exact_settings_,
+                             exact_scratch_, flown);
+  // Every body of a solved cluster, as a result (by work index).
+  std::vector<const FlownBody *> flown_at(problem.piece.size(), nullptr);
+  for (const FlownBody &f : flown) flown_at[f.body] = &f;
+  std::vector<ExactResult> results;
+  for (std::uint32_t k = 0; k < problem.piece.size(); ++k) {
+    const std::uint32_t pb = problem.piece[k];
+    const std::uint32_t c = ec.cluster_of[pb];
+    const ExactResult r = exact_result(pieces.bodies[pb].id, pieces.bodies[ec.members[ec.start[c]]].id,
+                                       ec.size(c), flown_at[k]);
+    results.push_back(r);
+    if (where[pb] != kNoBody) settle_exact(round, where[pb], r);
+  }
+  if (comm_.size() > 2 || results_exchange_) exchange_exact_results(round, results);
+  // Every advanced body of a spanning cluster is in its owner's piece, which came here.
+  round.unresolved = 0;
+  for (const std::uint32_t b : where) round.unresolved += b != kNoBody && round.label[b] == -1;
+}
+
+void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactResult &r) {
+  if (round.label[b] != -1) return;
+  if (r.flown) round.flown.push_back(flown_body(r, b));
+  round.label[b] = r.label;
+  round.size[b] = r.size;
+}
+
+// This rank's pieces of the spanning components, to the owners and holders of their bodies;
+// returns them merged with what the partners sent (tidy).
+ExactPieces Simulation::exchange_pieces(const ExactRound &round, const ExactComponents &cc) {
+  const auto &partners = domain_.partners();
+  std::vector<std::vector<char>> &out = spanning_out_;
+  out.resize(partners.size());
+  for (auto &o : out) o.clear();
+  ExactPieces pieces;
+  // Each body's edges here, as ids (a < b): its candidates and joins.
+  std::vector<std::uint32_t> degree(advanced(), 0);
+  std::vector<std::vector<ExactPieces::Edge>> edges(cc.count());
+  const auto add_edge = [&](std::uint32_t a, std::uint32_t b, bool candidate) {
+    ++degree[a], ++degree[b];
+    const std::uint32_t c = cc.comp_of[a];
+    if (!cc.spanning[c]) return;
+    std::int64_t ia = particles_.id[a], ib = particles_.id[b];
+    if (ia > ib) std::swap(ia, ib);
+    edges[c].push_back({ia, ib, candidate ? 1 : 0});
+  };
+  for (const Contact &ct : contacts_) add_edge(ct.i, ct.j, true);
+  for (const auto &[a, b] : round.joins) add_edge(a, b, false);
+  std::vector<ExactPieces::Body> bodies;
+  std::vector<ExactPieces::Pair> listed;
+  std::vector<int> targets;
+  for (std::size_t c = 0; c < cc.count(); ++c) {
+    if (!cc.spanning[c]) continue;
+    bodies.clear();
+    listed.clear();
+    targets.clear();
+    for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
+      const std::uint32_t b = cc.bodies[k];
+      ExactPieces::Body body;
+      body.id = particles_.id[b];
+      body.degree = b < owned_ ? degree[b] : kDegreeUnknown;
+      read_exact_state(particles_, b, body.state);
+      bodies.push_back(body);
+      add_targets(body.id, targets);
+      if (b >= owned_) continue;
+      for (std::uint32_t q = list_.pairs_start[b]; q < list_.pairs_start[b + 1]; ++q) {
+        const ListedPair &pair = list_.pairs[list_.pair_index[q]];
+        const std::int64_t other = particles_.id[pair.first == b ? pair.second : pair.first];
+        listed.push_back({std::min(body.id, other), std::max(body.id, other)});
+      }
+    }
+    std::sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    for (int r : targets) pack_piece(out[domain_.partner_slot(r)], bodies, edges[c], listed);
+    pieces.bodies.insert(pieces.bodies.end(), bodies.begin(), bodies.end());
+    pieces.edges.insert(pieces.edges.end(), edges[c].begin(), edges[c].end());
+    pieces.listed.insert(pieces.listed.end(), listed.begin(), listed.end());
+  }
+  for (const auto &buf : comm_.exchange("exact_pieces", partners, out)) unpack_pieces(buf, pieces);
+  pieces.tidy();
+  return pieces;
+}
+
+// For clusters that reached a rank only in part: every solved cluster's results to the owners
+// and holders of its bodies that this rank knows (duplicates carry the same bits).
+void Simulation::exchange_exact_results(ExactRound &round, const std::vector<ExactResult> &results) {
+  const auto &partners = domain_.partners();
+  std::vector<std::vector<char>> &out = spanning_out_;
+  for (auto &o : out) o.clear();
+  // Every result goes to every target of any body of its cluster: gather targets by label.
+  std::vector<int> targets;
+  for (std::size_t k = 0; k < results.size();) {
+    std::size_t end = k;
+    targets.clear();
+    while (end < results.size() && results[end].label == results[k].label)
+      add_targets(results[end++].id, targets);
+    std::sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    const std::vector<ExactResult> cluster(results.begin() + static_cast<long>(k),
+                                           results.begin() + static_cast<long>(end));
+    for (int r : targets) pack_results(out[domain_.partner_slot(r)], cluster);
+    k = end;
+  }
+  std::vector<ExactResult> got;
+  for (const auto &buf : comm_.exchange("exact_results", partners, out)) unpack_results(buf, got);
+  for (const ExactResult &r : got) {
+    const auto it = index_.find(r.id);
+    if (it == index_.end() || it->second >= advanced()) continue;
+    spanning_.from_results += round.label[it->second] == -1;
+    settle_exact(round, it->second, r);
+  }
+}
+
+// The step's counts: collisions and virial of the flown bodies this rank owns, clusters whose
+// lowest id it owns, candidates whose lower-id body it owns; the work of every round here.
+ExactStats Simulation::exact_counts(const ExactRound &round) const {
+  ExactStats s = round.work;
+  s.collisions = s.clusters = s.largest_cluster = s.fallbacks = s.candidates = 0;
+  s.virial = ExactSum();
+  for (const FlownBody &f : round.flown) {
+    if (f.body >= owned_) continue;
+    s.collisions += f.collisions;
+    s.virial += f.virial;
+  }
+  for (std::uint32_t b = 0; b < owned_; ++b) {
+    if (round.label[b] != particles_.id[b]) continue;
+    ++s.clusters;
+    s.largest_cluster = std::max<long long>(s.largest_cluster, round.size[b]);
+  }
+  for (const Contact &c : contacts_) s.candidates += c.i < owned_;
+  s.fallbacks = round.work.fallbacks;
+  return s;
+}
+
+}  // namespace hardrod

@@ -1,0 +1,130 @@
+// The exact method's clusters across ranks without MPI (runtime/exact_protocol.hpp): pieces
+// merged and their completeness, the wire format, the scratch problem and the results.
+#include "runtime/exact_protocol.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+namespace hardrod {
+namespace {
+
+ExactPieces::Body body(std::int64_t id, std::uint32_t degree = kDegreeUnknown) {
+  ExactPieces::Body b;
+  b.id = id;
+  b.degree = degree;
+  for (std::size_t k = 0; k < kExactState; ++k) b.state[k] = 0.1 * static_cast<double>(id) + k;
+  return b;
+}
+
+// Two ranks each own one end of a chain 1 - 2 - 3 (rank A owns 1, 2; rank B owns 3) with a
+// join 3 - 7 (B owns 7); body 9 is alone.
+struct Chain {
+  std::vector<ExactPieces::Body> a_bodies{body(1, 1), body(2, 2), body(3)};
+  std::vector<ExactPieces::Edge> a_edges{{1, 2, 1}, {2, 3, 1}};
+  std::vector<ExactPieces::Pair> a_listed{{1, 2}, {2, 3}, {1, 3}, {2, 5}};
+  std::vector<ExactPieces::Body> b_bodies{body(2), body(3, 2), body(7, 1)};
+  std::vector<ExactPieces::Edge> b_edges{{2, 3, 1}, {3, 7, 0}};
+  std::vector<ExactPieces::Pair> b_listed{{2, 3}, {3, 7}, {3, 9}};
+};
+
+TEST(ExactProtocol, AClusterIsCompleteOnlyWithEveryOwnersPiece) {
+  const Chain c;
+  std::vector<char> a, b;
+  pack_piece(a, c.a_bodies, c.a_edges, c.a_listed);
+  pack_piece(b, c.b_bodies, c.b_edges, c.b_listed);
+  ExactPieces only_a;
+  unpack_pieces(a, only_a);
+  only_a.tidy();
+  const ExactClusters partial = exact_clusters(only_a);
+  ASSERT_EQ(partial.count(), 1u);
+  EXPECT_FALSE(partial.complete[0]);  // body 3's owner has not spoken
+
+  ExactPieces both;
+  unpack_pieces(b, both);  // in either order, with duplicates
+  unpack_pieces(a, both);
+  unpack_pieces(b, both);
+  both.tidy();
+  ASSERT_EQ(both.bodies.size(), 4u);
+  EXPECT_EQ(both.edges.size(), 3u);
+  EXPECT_EQ(both.bodies[both.at(2)].degree, 2u);  // the owner's degree kept over "unknown"
+  EXPECT_EQ(both.at(5), both.bodies.size());      // listed partner, not in any piece
+  const ExactClusters whole = exact_clusters(both);
+  ASSERT_EQ(whole.count(), 1u);
+  EXPECT_TRUE(whole.complete[0]);
+  EXPECT_EQ(whole.size(0), 4u);
+  EXPECT_EQ(both.bodies[whole.members[whole.start[0]]].id, 1);  // the label: lowest id
+
+  // A degree the merged edges do not reach: incomplete.
+  ExactPieces short_of_one = both;
+  short_of_one.bodies[short_of_one.at(7)].degree = 2;
+  EXPECT_FALSE(exact_clusters(short_of_one).complete[0]);
+}
+
+TEST(ExactProtocol, TheScratchProblemHoldsTheClustersBodiesEdgesAndInnerPairs) {
+  const Chain c;
+  ExactPieces r;
+  std::vector<char> buf;
+  pack_piece(buf, c.a_bodies, c.a_edges, c.a_listed);
+  pack_piece(buf, c.b_bodies, c.b_edges, c.b_listed);
+  unpack_pieces(buf, r);
+  r.tidy();
+  const ExactClusters ec = exact_clusters(r);
+  ExactProblem problem;
+  exact_problem(r, ec, {1}, problem);
+  ASSERT_EQ(problem.bodies.size(), 4u);
+  for (std::size_t k = 0; k < 4; ++k) {
+    const ExactPieces::Body &b = r.bodies[problem.piece[k]];
+    EXPECT_EQ(problem.bodies.id[k], b.id);
+    double s[kExactState];
+    read_exact_state(problem.bodies, k, s);
+    EXPECT_EQ(std::memcmp(s, b.state, sizeof s), 0);  // the bits that travelled
+  }
+  EXPECT_EQ(problem.candidates.size(), 2u);
+  ASSERT_EQ(problem.joins.size(), 1u);
+  EXPECT_EQ(problem.bodies.id[problem.joins[0].first], 3);
+  EXPECT_EQ(problem.bodies.id[problem.joins[0].second], 7);
+  // Pairs with a partner outside the cluster (2-5, 3-9) are not the cluster's.
+  EXPECT_EQ(problem.list.pairs.size(), 4u);
+  EXPECT_EQ(problem.list.pair_index.size(), 8u);
+  for (std::uint32_t b = 0; b < 4; ++b)
+    for (std::uint32_t q = problem.list.pairs_start[b]; q < problem.list.pairs_start[b + 1]; ++q) {
+      const ListedPair &p = problem.list.pairs[problem.list.pair_index[q]];
+      EXPECT_TRUE(p.first == b || p.second == b);
+    }
+  exact_problem(r, ec, {0}, problem);  // nothing taken
+  EXPECT_EQ(problem.bodies.size(), 0u);
+  EXPECT_TRUE(problem.candidates.empty() && problem.joins.empty() && problem.list.pairs.empty());
+}
+
+TEST(ExactProtocol, ResultsCarryTheEndStateAndTheCountedCollisions) {
+  FlownBody f;
+  f.body = 12;
+  f.x = {1.5, -2.25, 3.0};
+  f.e = {0.0, 0.6, 0.8};
+  f.v = {0.1, 0.2, -0.3};
+  f.w = {1e-3, 0.0, 7.0};
+  f.overrun = 0.0125;
+  f.collisions = 3;
+  f.virial.add(2.5);
+  f.virial.add(1e-17);
+  std::vector<char> buf;
+  pack_results(buf, {exact_result(40, 38, 5, &f), exact_result(41, 38, 5, nullptr)});
+  std::vector<ExactResult> got;
+  unpack_results(buf, got);
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].label, 38);
+  EXPECT_EQ(got[0].size, 5u);
+  EXPECT_TRUE(got[0].flown);
+  EXPECT_FALSE(got[1].flown);
+  const FlownBody back = flown_body(got[0], 7);
+  EXPECT_EQ(back.body, 7u);
+  EXPECT_EQ(std::memcmp(&back.x, &f.x, sizeof f.x), 0);
+  EXPECT_EQ(std::memcmp(&back.w, &f.w, sizeof f.w), 0);
+  EXPECT_EQ(back.overrun, f.overrun);
+  EXPECT_EQ(back.collisions, 3);
+  EXPECT_TRUE(back.virial.raw() == f.virial.raw());
+}
+
+}  // namespace
+}  // namespace hardrod
