@@ -37,8 +37,10 @@ std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
 }  // namespace
 
 void ExactPieces::tidy() {
-  std::sort(bodies.begin(), bodies.end(), [](const Body &a, const Body &b) {
-    return a.id != b.id ? a.id < b.id : a.degree < b.degree;
+  // A body's largest known degree first: a join in a later round raises it.
+  const auto known = [](std::uint32_t d) { return d == kDegreeUnknown ? -1 : std::int64_t{d}; };
+  std::sort(bodies.begin(), bodies.end(), [&](const Body &a, const Body &b) {
+    return a.id != b.id ? a.id < b.id : known(a.degree) > known(b.degree);
   });
   bodies.erase(std::unique(bodies.begin(), bodies.end(),
                            [](const Body &a, const Body &b) { return a.id == b.id; }),
@@ -48,8 +50,6 @@ void ExactPieces::tidy() {
   edges.erase(std::unique(edges.begin(), edges.end(),
                           [](const Edge &x, const Edge &y) { return x.a == y.a && x.b == y.b; }),
               edges.end());
-  std::sort(listed.begin(), listed.end());
-  listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
 }
 
 std::uint32_t ExactPieces::at(std::int64_t id) const {
@@ -74,18 +74,15 @@ void write_exact_state(Particles &p, std::size_t i, const double (&s)[kExactStat
 }
 
 void pack_piece(std::vector<char> &buf, const std::vector<ExactPieces::Body> &bodies,
-                const std::vector<ExactPieces::Edge> &edges,
-                const std::vector<ExactPieces::Pair> &listed) {
+                const std::vector<ExactPieces::Edge> &edges) {
   pack_array(buf, bodies);
   pack_array(buf, edges);
-  pack_array(buf, listed);
 }
 
 void unpack_pieces(const std::vector<char> &buf, ExactPieces &r) {
   for (std::size_t off = 0; off < buf.size();) {
     unpack_array(buf, off, r.bodies);
     unpack_array(buf, off, r.edges);
-    unpack_array(buf, off, r.listed);
   }
 }
 
@@ -126,7 +123,7 @@ ExactClusters exact_clusters(const ExactPieces &r) {
 }
 
 void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vector<char> &take,
-                   ExactProblem &problem) {
+                   const Box &box, double near, ExactProblem &problem) {
   std::vector<std::uint32_t> work(r.bodies.size(), kDegreeUnknown);  // piece body -> work
   problem.piece.clear();
   for (std::size_t c = 0; c < ec.count(); ++c) {
@@ -158,17 +155,23 @@ void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vec
       problem.joins.emplace_back(a, b);
     }
   }
-  // The listed pairs inside a taken cluster, indexed by body as build_neighbor_list does.
+  // The near pairs inside each taken cluster, indexed by body as build_neighbor_list does.
   NeighborList &list = problem.list;
   list.pairs.clear();
-  for (const ExactPieces::Pair &lp : r.listed) {
-    const std::uint32_t pa = r.at(lp.a), pb = r.at(lp.b);
-    if (pa == r.bodies.size() || pb == r.bodies.size()) continue;
-    if (work[pa] == kDegreeUnknown || ec.cluster_of[pa] != ec.cluster_of[pb]) continue;
-    ListedPair pair;
-    pair.first = work[pa];
-    pair.second = work[pb];
-    list.pairs.push_back(pair);
+  const Vec3 inverse = box.inverse_length();
+  for (std::uint32_t first = 0; first < n;) {
+    const std::uint32_t c = ec.cluster_of[problem.piece[first]];
+    const std::uint32_t last = first + ec.size(c);
+    for (std::uint32_t a = first; a < last; ++a)
+      for (std::uint32_t b = a + 1; b < last; ++b) {
+        const Vec3 r = box.minimum_image(p.position(b) - p.position(a), inverse);
+        if (norm2(r) >= near * near) continue;
+        ListedPair pair;
+        pair.first = a;
+        pair.second = b;
+        list.pairs.push_back(pair);
+      }
+    first = last;
   }
   list.active = list.bodies = n;
   list.pairs_start.assign(n + 1, 0);

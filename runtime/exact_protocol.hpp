@@ -7,10 +7,10 @@
 // joins (pairs whose bodies' overruns could reach each other, agreed in earlier rounds). Every
 // edge is known to the owner of each of its bodies, so a body's owner knows its *degree* (its
 // edges); a merged cluster is complete when every body's degree is known and equals the edges
-// listed for it. A piece also carries the listed pairs of the bodies its sender owns: the
-// solver predicts a pair again after a collision only if the pair list holds it, and the union
-// of the owners' lists is the one-rank list. A body, edge or pair seen by two ranks carries the
-// same bits on both, so duplicates are dropped by id.
+// listed for it. A body or edge seen by two ranks carries the same bits on both, so duplicates
+// are dropped by id. The solver predicts a pair again after a collision only if the pair list
+// holds it; the scratch problem lists every pair of a cluster near enough to be in any rank's
+// list (a superset: a pair no list holds cannot touch before the lists expire).
 #pragma once
 
 #include <cstddef>
@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "kernels/box.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/exact_collisions.hpp"
 #include "kernels/neighbor_list.hpp"
@@ -40,17 +41,11 @@ struct ExactPieces {
     std::int64_t a = 0, b = 0;  // a < b
     std::int32_t candidate = 0;  // 1: a candidate; 0: a join
   };
-  struct Pair {  // a listed pair, a < b
-    std::int64_t a = 0, b = 0;
-    friend bool operator<(const Pair &x, const Pair &y) { return x.a != y.a ? x.a < y.a : x.b < y.b; }
-    friend bool operator==(const Pair &x, const Pair &y) { return x.a == y.a && x.b == y.b; }
-  };
-
   std::vector<Body> bodies;  // by id after tidy()
   std::vector<Edge> edges;   // by (a, b) after tidy()
-  std::vector<Pair> listed;  // sorted after tidy()
 
-  // Sorts and drops duplicates, keeping a body's owner's degree where any piece has it.
+  // Sorts and drops duplicates, keeping a body's largest known degree (its owner's, which
+  // grows with the joins of later rounds).
   void tidy();
   // Position of body `id` in `bodies` (bodies.size() if absent; after tidy()).
   std::uint32_t at(std::int64_t id) const;
@@ -59,11 +54,10 @@ struct ExactPieces {
 void read_exact_state(const Particles &p, std::size_t i, double (&s)[kExactState]);
 void write_exact_state(Particles &p, std::size_t i, const double (&s)[kExactState]);
 
-// Appends one piece (its bodies, edges and listed pairs) to `buf`; unpack_pieces appends every
-// piece in `buf` to `r` (untidy).
+// Appends one piece (its bodies and edges) to `buf`; unpack_pieces appends every piece in `buf`
+// to `r` (untidy).
 void pack_piece(std::vector<char> &buf, const std::vector<ExactPieces::Body> &bodies,
-                const std::vector<ExactPieces::Edge> &edges,
-                const std::vector<ExactPieces::Pair> &listed);
+                const std::vector<ExactPieces::Edge> &edges);
 void unpack_pieces(const std::vector<char> &buf, ExactPieces &r);
 
 // The clusters of tidy pieces: bodies connected by edges, each cluster's bodies in id order,
@@ -80,7 +74,9 @@ struct ExactClusters {
 ExactClusters exact_clusters(const ExactPieces &r);
 
 // The scratch problem of the clusters with take[c] != 0: their bodies (cluster by cluster, in
-// id order), the listed pairs inside each cluster as a pair list, the candidates and joins.
+// id order), the candidates and joins, and as a pair list every pair inside a cluster whose
+// centres are closer than `near` (pass L + D + 2 skin: a listed pair's segments were closer
+// than D + skin at the build, and each body has moved less than skin / 2 since).
 // piece[k] is work body k's place in the pieces.
 struct ExactProblem {
   Particles bodies;
@@ -90,7 +86,7 @@ struct ExactProblem {
   std::vector<std::uint32_t> piece;
 };
 void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vector<char> &take,
-                   ExactProblem &problem);
+                   const Box &box, double near, ExactProblem &problem);
 
 // What a rank learnt of one body of a cluster it solved: the cluster (its lowest id and size),
 // and for a body whose velocity changed, its end state, overrun and the collisions it counts.

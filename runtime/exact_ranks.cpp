@@ -53,17 +53,40 @@ struct ExactComponents {
   std::size_t count() const { return spanning.size(); }
 };
 
-// What the rounds of one step carry from round to round.
+// What the rounds of one step carry from round to round: the joins, and every body's result,
+// which stands until a join changes its cluster.
 struct ExactRound {
-  std::vector<BodyPair> joins;         // agreed so far (this rank's, local indices)
-  std::vector<std::int64_t> label;     // by body: its cluster's lowest id (-1: none yet)
-  std::vector<std::uint32_t> size;     // by body: its cluster's size
-  std::vector<FlownBody> flown;        // this round's, by local index
-  std::vector<FlownBody> previous;     // the last round's
-  std::vector<std::uint32_t> prev_at;  // by body: its place in `previous` (kNoBody: none)
-  std::vector<char> dirty;             // by body: in a join of the last round
-  ExactStats work;                     // every round's passes
-  long long unresolved = 0;            // advanced bodies of spanning clusters left unsolved
+  std::vector<BodyPair> joins;          // agreed so far (this rank's, local indices)
+  std::vector<std::int64_t> label;      // by body: its cluster's lowest id (-1: not solved)
+  std::vector<std::uint32_t> size;      // by body: its cluster's size
+  std::vector<FlownBody> flown;         // results, including replaced ones (see flown_at)
+  std::vector<std::uint32_t> flown_at;  // by body: its result in `flown` (kNoBody: none)
+  std::vector<char> dirty;              // by body: in a join of the last round (round 0: all)
+  ExactPieces pieces;                   // every piece sent or received in the step
+  ExactStats work;                      // every round's passes
+  long long unresolved = 0;             // advanced bodies of spanning clusters left unsolved
+
+  void forget(std::uint32_t b) {
+    label[b] = -1;
+    flown_at[b] = kNoBody;
+  }
+  // Body b's result, unless it has one.
+  void settle(std::uint32_t b, std::int64_t cluster, std::uint32_t n, const FlownBody *f) {
+    if (label[b] != -1) return;
+    label[b] = cluster;
+    size[b] = n;
+    if (f == nullptr) return;
+    flown_at[b] = static_cast<std::uint32_t>(flown.size());
+    flown.push_back(*f);
+    flown.back().body = b;
+  }
+  // The standing results of the bodies whose velocity changed.
+  std::vector<FlownBody> current() const {
+    std::vector<FlownBody> out;
+    for (std::uint32_t q = 0; q < flown.size(); ++q)
+      if (flown_at[flown[q].body] == q) out.push_back(flown[q]);
+    return out;
+  }
 };
 
 namespace {
@@ -114,19 +137,26 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
   ExactRound round;
   round.label.assign(n, -1);
   round.size.assign(n, 0);
-  round.prev_at.assign(n, kNoBody);
+  round.flown_at.assign(n, kNoBody);
   round.dirty.assign(n, 1);
+  const bool incremental = comm_.size() == 2 && !results_exchange_;
   std::vector<double> overrun_scratch;
-  for (int k = 0;; ++k) {
+  for (;;) {
     const ExactComponents cc = components(n, contacts_, round.joins, shared_);
-    std::fill(round.label.begin(), round.label.end(), -1);
-    round.flown.clear();
-    solve_local_components(round, cc);
-    solve_spanning_components(round, cc);
-    std::vector<BodyPair> joins = overrun_reaches(particles_, scene_.box, scene_.shape, list_,
-                                                  round.flown, round.label, overrun_scratch);
+    std::vector<char> changed(cc.count(), 0);  // a component with a joined body: solved again
+    for (std::size_t c = 0; c < cc.count(); ++c) {
+      for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k)
+        changed[c] = changed[c] || round.dirty[cc.bodies[k]];
+      if (changed[c])
+        for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) round.forget(cc.bodies[k]);
+    }
+    solve_local_components(round, cc, changed);
+    solve_spanning_components(round, cc, changed);
+    const std::vector<FlownBody> flown = round.current();
+    const std::vector<BodyPair> joins = overrun_reaches(
+        particles_, scene_.box, scene_.shape, list_, flown, round.label, overrun_scratch);
     double largest = 0.0;
-    for (const FlownBody &f : round.flown)
+    for (const FlownBody &f : flown)
       largest = std::max(largest, particles_.motion_bound[f.body] + f.overrun);
     std::vector<double> flags{static_cast<double>(joins.size()),
                               static_cast<double>(round.unresolved), largest};
@@ -140,41 +170,25 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
                        step_ + 1, flags[1]));
     if (flags[0] == 0.0) {
       reach = flags[2];
-      break;
+      flown_ = flown;
+      return exact_counts(round, flown);
     }
     for (const auto &[a, b] : joins)  // each join counted by the owner of its lower-id body
       round.work.regrown += (particles_.id[a] < particles_.id[b] ? a : b) < owned_;
-    std::fill(round.dirty.begin(), round.dirty.end(), 0);
+    // On two ranks every rank holding a body of a changed cluster gets the changed piece (the
+    // argument of one exchange), so only the changed components go again. With more, a rank
+    // may know a cluster from the results alone and cannot tell it changed: all go again.
+    std::fill(round.dirty.begin(), round.dirty.end(), incremental ? 0 : 1);
     for (const auto &[a, b] : joins) round.dirty[a] = round.dirty[b] = 1;
     round.joins.insert(round.joins.end(), joins.begin(), joins.end());
-    round.previous.swap(round.flown);
-    std::fill(round.prev_at.begin(), round.prev_at.end(), kNoBody);
-    for (std::uint32_t q = 0; q < round.previous.size(); ++q)
-      round.prev_at[round.previous[q].body] = q;
   }
-  flown_ = round.flown;
-  return exact_counts(round);
 }
 
-// The components no other rank holds a body of: solved here (those the last round's joins did
-// not change keep their results).
-void Simulation::solve_local_components(ExactRound &round, const ExactComponents &cc) {
+// The changed components no other rank holds a body of: solved here.
+void Simulation::solve_local_components(ExactRound &round, const ExactComponents &cc,
+                                        const std::vector<char> &changed) {
   std::vector<char> solve(cc.count(), 0);
-  for (std::size_t c = 0; c < cc.count(); ++c) {
-    if (cc.spanning[c]) continue;
-    const std::uint32_t *first = cc.bodies.data() + cc.start[c];
-    const std::uint32_t *last = cc.bodies.data() + cc.start[c + 1];
-    solve[c] = std::any_of(first, last, [&](std::uint32_t b) { return round.dirty[b] != 0; });
-    std::int64_t lowest = std::numeric_limits<std::int64_t>::max();  // the cluster's label
-    for (const std::uint32_t *b = first; b != last; ++b)
-      lowest = std::min(lowest, particles_.id[*b]);
-    for (const std::uint32_t *b = first; b != last; ++b) {
-      round.label[*b] = lowest;
-      round.size[*b] = static_cast<std::uint32_t>(last - first);
-      if (!solve[c] && round.prev_at[*b] != kNoBody)
-        round.flown.push_back(round.previous[round.prev_at[*b]]);
-    }
-  }
+  for (std::size_t c = 0; c < cc.count(); ++c) solve[c] = changed[c] && !cc.spanning[c];
   std::vector<Contact> candidates;
   for (const Contact &ct : contacts_)
     if (solve[cc.comp_of[ct.i]]) candidates.push_back(ct);
@@ -184,44 +198,67 @@ void Simulation::solve_local_components(ExactRound &round, const ExactComponents
   std::vector<FlownBody> flown;
   round.work += collide_once(particles_, scene_.box, scene_.shape, list_, candidates, joins,
                              scene_.dt, exact_settings_, exact_scratch_, flown);
-  round.flown.insert(round.flown.end(), flown.begin(), flown.end());
+  std::vector<const FlownBody *> flown_of(advanced(), nullptr);
+  for (const FlownBody &f : flown) flown_of[f.body] = &f;
+  for (std::size_t c = 0; c < cc.count(); ++c) {
+    if (!solve[c]) continue;
+    const std::uint32_t *first = cc.bodies.data() + cc.start[c];
+    const std::uint32_t *last = cc.bodies.data() + cc.start[c + 1];
+    std::int64_t lowest = std::numeric_limits<std::int64_t>::max();  // the cluster's label
+    for (const std::uint32_t *b = first; b != last; ++b)
+      lowest = std::min(lowest, particles_.id[*b]);
+    for (const std::uint32_t *b = first; b != last; ++b)
+      round.settle(*b, lowest, static_cast<std::uint32_t>(last - first), flown_of[*b]);
+  }
 }
 
-// The spanning components: pieces to the owners and holders of their bodies, the complete
-// merged clusters with a body advanced here solved here, results where needed.
-void Simulation::solve_spanning_components(ExactRound &round, const ExactComponents &cc) {
-  ExactPieces pieces = exchange_pieces(round, cc);
+// The spanning components: pieces of the changed ones to the owners and holders of their
+// bodies, merged with every piece of the step; the complete merged clusters that changed (a body
+// in this round's pieces) and have a body advanced here are solved here; results where needed.
+void Simulation::solve_spanning_components(ExactRound &round, const ExactComponents &cc,
+                                           const std::vector<char> &changed) {
+  std::vector<std::int64_t> fresh = exchange_pieces(round, cc, changed);
+  std::sort(fresh.begin(), fresh.end());
+  ExactPieces &pieces = round.pieces;
   const ExactClusters ec = exact_clusters(pieces);
-  std::vector<std::uint32_t> where(pieces.bodies.size(), kNoBody);  // local index if advanced
-  for (std::size_t b = 0; b < pieces.bodies.size(); ++b) {
-    const auto it = index_.find(pieces.bodies[b].id);
-    if (it != index_.end() && it->second < advanced()) where[b] = it->second;
-  }
-  std::vector<char> take(ec.count(), 0);
+  // Of the renewed clusters' bodies: the local index if advanced here.
+  std::vector<std::uint32_t> where(pieces.bodies.size(), kNoBody);
+  std::vector<char> renewed(ec.count(), 0), take(ec.count(), 0);
   for (std::size_t c = 0; c < ec.count(); ++c) {
-    if (!ec.complete[c]) continue;
-    const std::uint32_t lowest = ec.members[ec.start[c]];
-    for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k)
-      take[c] = take[c] || where[ec.members[k]] != kNoBody;
-    if (results_exchange_) take[c] = take[c] && where[lowest] < owned_;
+    const std::uint32_t *first = ec.members.data() + ec.start[c];
+    const std::uint32_t *last = ec.members.data() + ec.start[c + 1];
+    renewed[c] = std::any_of(first, last, [&](std::uint32_t b) {
+      return std::binary_search(fresh.begin(), fresh.end(), pieces.bodies[b].id);
+    });
+    if (!renewed[c]) continue;
+    bool held = false;
+    for (const std::uint32_t *b = first; b != last; ++b) {
+      const auto it = index_.find(pieces.bodies[*b].id);
+      if (it == index_.end() || it->second >= advanced()) continue;
+      where[*b] = it->second;
+      round.forget(it->second);
+      held = true;
+    }
+    take[c] = ec.complete[c] && held && (!results_exchange_ || where[*first] < owned_);
   }
   ExactProblem &problem = exact_problem_;
-  exact_problem(pieces, ec, take, problem);
+  const double near = scene_.shape.length + scene_.shape.diameter + 2.0 * list_.skin;
+  exact_problem(pieces, ec, take, scene_.box, near, problem);
   std::vector<FlownBody> flown;
   round.work += collide_once(problem.bodies, scene_.box, scene_.shape, problem.list,
                              problem.candidates, problem.joins, scene_.dt, exact_settings_,
                              exact_scratch_, flown);
   // Every body of a solved cluster, as a result (by work index).
-  std::vector<const FlownBody *> flown_at(problem.piece.size(), nullptr);
-  for (const FlownBody &f : flown) flown_at[f.body] = &f;
+  std::vector<const FlownBody *> flown_of(problem.piece.size(), nullptr);
+  for (const FlownBody &f : flown) flown_of[f.body] = &f;
   std::vector<ExactResult> results;
   for (std::uint32_t k = 0; k < problem.piece.size(); ++k) {
     const std::uint32_t pb = problem.piece[k];
     const std::uint32_t c = ec.cluster_of[pb];
-    const ExactResult r = exact_result(pieces.bodies[pb].id, pieces.bodies[ec.members[ec.start[c]]].id,
-                                       ec.size(c), flown_at[k]);
-    results.push_back(r);
-    if (where[pb] != kNoBody) settle_exact(round, where[pb], r);
+    results.push_back(exact_result(pieces.bodies[pb].id,
+                                   pieces.bodies[ec.members[ec.start[c]]].id, ec.size(c),
+                                   flown_of[k]));
+    if (where[pb] != kNoBody) settle_exact(round, where[pb], results.back());
   }
   if (comm_.size() > 2 || results_exchange_) exchange_exact_results(round, results);
   // Every advanced body of a spanning cluster is in its owner's piece, which came here.
@@ -231,26 +268,29 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
 
 void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactResult &r) {
   if (round.label[b] != -1) return;
-  if (r.flown) round.flown.push_back(flown_body(r, b));
-  round.label[b] = r.label;
-  round.size[b] = r.size;
+  if (!r.flown) return round.settle(b, r.label, r.size, nullptr);
+  const FlownBody f = flown_body(r, b);
+  round.settle(b, r.label, r.size, &f);
 }
 
-// This rank's pieces of the spanning components, to the owners and holders of their bodies;
-// returns them merged with what the partners sent (tidy).
-ExactPieces Simulation::exchange_pieces(const ExactRound &round, const ExactComponents &cc) {
+// This rank's pieces of the changed spanning components, to the owners and holders of their
+// bodies, and what the partners sent, added to the step's pieces (tidy); returns the ids of
+// the bodies in this round's pieces.
+std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const ExactComponents &cc,
+                                                      const std::vector<char> &changed) {
   const auto &partners = domain_.partners();
   std::vector<std::vector<char>> &out = spanning_out_;
   out.resize(partners.size());
   for (auto &o : out) o.clear();
-  ExactPieces pieces;
+  ExactPieces &pieces = round.pieces;
+  const std::size_t first_new = pieces.bodies.size();
   // Each body's edges here, as ids (a < b): its candidates and joins.
   std::vector<std::uint32_t> degree(advanced(), 0);
   std::vector<std::vector<ExactPieces::Edge>> edges(cc.count());
   const auto add_edge = [&](std::uint32_t a, std::uint32_t b, bool candidate) {
     ++degree[a], ++degree[b];
     const std::uint32_t c = cc.comp_of[a];
-    if (!cc.spanning[c]) return;
+    if (!cc.spanning[c] || !changed[c]) return;
     std::int64_t ia = particles_.id[a], ib = particles_.id[b];
     if (ia > ib) std::swap(ia, ib);
     edges[c].push_back({ia, ib, candidate ? 1 : 0});
@@ -258,12 +298,10 @@ ExactPieces Simulation::exchange_pieces(const ExactRound &round, const ExactComp
   for (const Contact &ct : contacts_) add_edge(ct.i, ct.j, true);
   for (const auto &[a, b] : round.joins) add_edge(a, b, false);
   std::vector<ExactPieces::Body> bodies;
-  std::vector<ExactPieces::Pair> listed;
   std::vector<int> targets;
   for (std::size_t c = 0; c < cc.count(); ++c) {
-    if (!cc.spanning[c]) continue;
+    if (!cc.spanning[c] || !changed[c]) continue;
     bodies.clear();
-    listed.clear();
     targets.clear();
     for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
       const std::uint32_t b = cc.bodies[k];
@@ -273,23 +311,18 @@ ExactPieces Simulation::exchange_pieces(const ExactRound &round, const ExactComp
       read_exact_state(particles_, b, body.state);
       bodies.push_back(body);
       add_targets(body.id, targets);
-      if (b >= owned_) continue;
-      for (std::uint32_t q = list_.pairs_start[b]; q < list_.pairs_start[b + 1]; ++q) {
-        const ListedPair &pair = list_.pairs[list_.pair_index[q]];
-        const std::int64_t other = particles_.id[pair.first == b ? pair.second : pair.first];
-        listed.push_back({std::min(body.id, other), std::max(body.id, other)});
-      }
     }
     std::sort(targets.begin(), targets.end());
     targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
-    for (int r : targets) pack_piece(out[domain_.partner_slot(r)], bodies, edges[c], listed);
+    for (int r : targets) pack_piece(out[domain_.partner_slot(r)], bodies, edges[c]);
     pieces.bodies.insert(pieces.bodies.end(), bodies.begin(), bodies.end());
     pieces.edges.insert(pieces.edges.end(), edges[c].begin(), edges[c].end());
-    pieces.listed.insert(pieces.listed.end(), listed.begin(), listed.end());
   }
   for (const auto &buf : comm_.exchange("exact_pieces", partners, out)) unpack_pieces(buf, pieces);
+  std::vector<std::int64_t> fresh;
+  for (std::size_t k = first_new; k < pieces.bodies.size(); ++k) fresh.push_back(pieces.bodies[k].id);
   pieces.tidy();
-  return pieces;
+  return fresh;
 }
 
 // For clusters that reached a rank only in part: every solved cluster's results to the owners
@@ -324,11 +357,12 @@ void Simulation::exchange_exact_results(ExactRound &round, const std::vector<Exa
 
 // The step's counts: collisions and virial of the flown bodies this rank owns, clusters whose
 // lowest id it owns, candidates whose lower-id body it owns; the work of every round here.
-ExactStats Simulation::exact_counts(const ExactRound &round) const {
+ExactStats Simulation::exact_counts(const ExactRound &round,
+                                    const std::vector<FlownBody> &flown) const {
   ExactStats s = round.work;
   s.collisions = s.clusters = s.largest_cluster = s.fallbacks = s.candidates = 0;
   s.virial = ExactSum();
-  for (const FlownBody &f : round.flown) {
+  for (const FlownBody &f : flown) {
     if (f.body >= owned_) continue;
     s.collisions += f.collisions;
     s.virial += f.virial;

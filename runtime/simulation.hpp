@@ -263,12 +263,15 @@ class Simulation {
   void tally_exact(const DetectionStats &detected, const ExactStats &stats);
   // Phase 5 of the exact step on several ranks (runtime/exact_ranks.cpp).
   ExactStats collide_on_ranks(double &reach);
-  void solve_local_components(ExactRound &round, const ExactComponents &cc);
-  void solve_spanning_components(ExactRound &round, const ExactComponents &cc);
-  ExactPieces exchange_pieces(const ExactRound &round, const ExactComponents &cc);
+  void solve_local_components(ExactRound &round, const ExactComponents &cc,
+                              const std::vector<char> &changed);
+  void solve_spanning_components(ExactRound &round, const ExactComponents &cc,
+                                 const std::vector<char> &changed);
+  std::vector<std::int64_t> exchange_pieces(ExactRound &round, const ExactComponents &cc,
+                                            const std::vector<char> &changed);
   void exchange_exact_results(ExactRound &round, const std::vector<ExactResult> &results);
   void settle_exact(ExactRound &round, std::uint32_t body, const ExactResult &result);
-  ExactStats exact_counts(const ExactRound &round) const;
+  ExactStats exact_counts(const ExactRound &round, const std::vector<FlownBody> &flown) const;
   void restore_constraints();  // 7
   void apply_thermostat();     // 7
   // 8, balance_check.cpp. Collective, every balance_.interval steps: compares the ranks'

@@ -22,17 +22,15 @@ ExactPieces::Body body(std::int64_t id, std::uint32_t degree = kDegreeUnknown) {
 struct Chain {
   std::vector<ExactPieces::Body> a_bodies{body(1, 1), body(2, 2), body(3)};
   std::vector<ExactPieces::Edge> a_edges{{1, 2, 1}, {2, 3, 1}};
-  std::vector<ExactPieces::Pair> a_listed{{1, 2}, {2, 3}, {1, 3}, {2, 5}};
   std::vector<ExactPieces::Body> b_bodies{body(2), body(3, 2), body(7, 1)};
   std::vector<ExactPieces::Edge> b_edges{{2, 3, 1}, {3, 7, 0}};
-  std::vector<ExactPieces::Pair> b_listed{{2, 3}, {3, 7}, {3, 9}};
 };
 
 TEST(ExactProtocol, AClusterIsCompleteOnlyWithEveryOwnersPiece) {
   const Chain c;
   std::vector<char> a, b;
-  pack_piece(a, c.a_bodies, c.a_edges, c.a_listed);
-  pack_piece(b, c.b_bodies, c.b_edges, c.b_listed);
+  pack_piece(a, c.a_bodies, c.a_edges);
+  pack_piece(b, c.b_bodies, c.b_edges);
   ExactPieces only_a;
   unpack_pieces(a, only_a);
   only_a.tidy();
@@ -48,7 +46,7 @@ TEST(ExactProtocol, AClusterIsCompleteOnlyWithEveryOwnersPiece) {
   ASSERT_EQ(both.bodies.size(), 4u);
   EXPECT_EQ(both.edges.size(), 3u);
   EXPECT_EQ(both.bodies[both.at(2)].degree, 2u);  // the owner's degree kept over "unknown"
-  EXPECT_EQ(both.at(5), both.bodies.size());      // listed partner, not in any piece
+  EXPECT_EQ(both.at(5), both.bodies.size());      // not in any piece
   const ExactClusters whole = exact_clusters(both);
   ASSERT_EQ(whole.count(), 1u);
   EXPECT_TRUE(whole.complete[0]);
@@ -61,17 +59,18 @@ TEST(ExactProtocol, AClusterIsCompleteOnlyWithEveryOwnersPiece) {
   EXPECT_FALSE(exact_clusters(short_of_one).complete[0]);
 }
 
-TEST(ExactProtocol, TheScratchProblemHoldsTheClustersBodiesEdgesAndInnerPairs) {
+TEST(ExactProtocol, TheScratchProblemHoldsTheClustersBodiesEdgesAndNearPairs) {
   const Chain c;
   ExactPieces r;
   std::vector<char> buf;
-  pack_piece(buf, c.a_bodies, c.a_edges, c.a_listed);
-  pack_piece(buf, c.b_bodies, c.b_edges, c.b_listed);
+  pack_piece(buf, c.a_bodies, c.a_edges);
+  pack_piece(buf, c.b_bodies, c.b_edges);
   unpack_pieces(buf, r);
   r.tidy();
   const ExactClusters ec = exact_clusters(r);
   ExactProblem problem;
-  exact_problem(r, ec, {1}, problem);
+  const Box box{{20.0, 20.0, 20.0}};
+  exact_problem(r, ec, {1}, box, 10.0, problem);
   ASSERT_EQ(problem.bodies.size(), 4u);
   for (std::size_t k = 0; k < 4; ++k) {
     const ExactPieces::Body &b = r.bodies[problem.piece[k]];
@@ -84,15 +83,20 @@ TEST(ExactProtocol, TheScratchProblemHoldsTheClustersBodiesEdgesAndInnerPairs) {
   ASSERT_EQ(problem.joins.size(), 1u);
   EXPECT_EQ(problem.bodies.id[problem.joins[0].first], 3);
   EXPECT_EQ(problem.bodies.id[problem.joins[0].second], 7);
-  // Pairs with a partner outside the cluster (2-5, 3-9) are not the cluster's.
-  EXPECT_EQ(problem.list.pairs.size(), 4u);
-  EXPECT_EQ(problem.list.pair_index.size(), 8u);
+  // Every pair of the cluster is near (centres within 10): 6 pairs, 12 ends.
+  EXPECT_EQ(problem.list.pairs.size(), 6u);
+  EXPECT_EQ(problem.list.pair_index.size(), 12u);
   for (std::uint32_t b = 0; b < 4; ++b)
     for (std::uint32_t q = problem.list.pairs_start[b]; q < problem.list.pairs_start[b + 1]; ++q) {
       const ListedPair &p = problem.list.pairs[problem.list.pair_index[q]];
       EXPECT_TRUE(p.first == b || p.second == b);
     }
-  exact_problem(r, ec, {0}, problem);  // nothing taken
+  // Centres 0.1 sqrt(3) apart per unit of id: within 0.25 only 1-2 and 2-3.
+  exact_problem(r, ec, {1}, box, 0.25, problem);
+  ASSERT_EQ(problem.list.pairs.size(), 2u);
+  EXPECT_EQ(problem.bodies.id[problem.list.pairs[0].first], 1);
+  EXPECT_EQ(problem.bodies.id[problem.list.pairs[1].second], 3);
+  exact_problem(r, ec, {0}, box, 10.0, problem);  // nothing taken
   EXPECT_EQ(problem.bodies.size(), 0u);
   EXPECT_TRUE(problem.candidates.empty() && problem.joins.empty() && problem.list.pairs.empty());
 }
