@@ -37,19 +37,27 @@ std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
 }  // namespace
 
 void ExactPieces::tidy() {
-  // A body's largest known degree first: a join in a later round raises it.
+  // Sorted through a permutation: a body is 120 bytes. A body's largest known degree first: a
+  // join in a later round raises it.
   const auto known = [](std::uint32_t d) { return d == kDegreeUnknown ? -1 : std::int64_t{d}; };
-  std::sort(bodies.begin(), bodies.end(), [&](const Body &a, const Body &b) {
+  std::vector<std::uint32_t> order(bodies.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t x, std::uint32_t y) {
+    const Body &a = bodies[x], &b = bodies[y];
     return a.id != b.id ? a.id < b.id : known(a.degree) > known(b.degree);
   });
-  bodies.erase(std::unique(bodies.begin(), bodies.end(),
-                           [](const Body &a, const Body &b) { return a.id == b.id; }),
-               bodies.end());
+  std::vector<Body> sorted;
+  sorted.reserve(order.size());
+  for (const std::uint32_t k : order)
+    if (sorted.empty() || sorted.back().id != bodies[k].id) sorted.push_back(bodies[k]);
+  bodies.swap(sorted);
   std::sort(edges.begin(), edges.end(),
             [](const Edge &x, const Edge &y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
   edges.erase(std::unique(edges.begin(), edges.end(),
                           [](const Edge &x, const Edge &y) { return x.a == y.a && x.b == y.b; }),
               edges.end());
+  ends.resize(edges.size());
+  for (std::size_t k = 0; k < edges.size(); ++k) ends[k] = {at(edges[k].a), at(edges[k].b)};
 }
 
 std::uint32_t ExactPieces::at(std::int64_t id) const {
@@ -91,8 +99,7 @@ ExactClusters exact_clusters(const ExactPieces &r) {
   std::vector<std::uint32_t> parent(n);
   std::iota(parent.begin(), parent.end(), 0u);
   std::vector<std::uint32_t> degree(n, 0);
-  for (const ExactPieces::Edge &e : r.edges) {
-    const std::uint32_t a = r.at(e.a), b = r.at(e.b);
+  for (const auto &[a, b] : r.ends) {
     ++degree[a], ++degree[b];
     const std::uint32_t ra = root(parent, a), rb = root(parent, b);
     if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);  // the lowest id is the root
@@ -144,8 +151,9 @@ void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vec
   }
   problem.candidates.clear();
   problem.joins.clear();
-  for (const ExactPieces::Edge &e : r.edges) {
-    const std::uint32_t a = work[r.at(e.a)], b = work[r.at(e.b)];
+  for (std::size_t k = 0; k < r.edges.size(); ++k) {
+    const ExactPieces::Edge &e = r.edges[k];
+    const std::uint32_t a = work[r.ends[k].first], b = work[r.ends[k].second];
     if (a == kDegreeUnknown) continue;  // a cluster not taken (its edges stay inside it)
     if (e.candidate) {
       Contact c;

@@ -43,9 +43,10 @@ struct ExactPieces {
   };
   std::vector<Body> bodies;  // by id after tidy()
   std::vector<Edge> edges;   // by (a, b) after tidy()
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // edges' bodies (after tidy())
 
   // Sorts and drops duplicates, keeping a body's largest known degree (its owner's, which
-  // grows with the joins of later rounds).
+  // grows with the joins of later rounds), and finds every edge's bodies.
   void tidy();
   // Position of body `id` in `bodies` (bodies.size() if absent; after tidy()).
   std::uint32_t at(std::int64_t id) const;

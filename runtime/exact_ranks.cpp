@@ -43,8 +43,7 @@ std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
 
 }  // namespace
 
-// The connected components of a round's edges over the advanced bodies, each with its
-// bodies in index order.
+// The connected components of a round's edges over the advanced bodies.
 struct ExactComponents {
   std::vector<std::uint32_t> comp_of;  // by body; kNoBody: in no edge
   std::vector<std::uint32_t> start{0}, bodies;
@@ -93,10 +92,10 @@ namespace {
 
 ExactComponents components(std::size_t n, const std::vector<Contact> &candidates,
                            const std::vector<BodyPair> &joins, const std::vector<char> &shared) {
-  std::vector<std::uint32_t> parent(n, kNoBody);
+  std::vector<std::uint32_t> parent(n, kNoBody), involved;
   const auto edge = [&](std::uint32_t a, std::uint32_t b) {
-    if (parent[a] == kNoBody) parent[a] = a;
-    if (parent[b] == kNoBody) parent[b] = b;
+    for (const std::uint32_t x : {a, b})
+      if (parent[x] == kNoBody) parent[x] = x, involved.push_back(x);
     a = root(parent, a);
     b = root(parent, b);
     if (a != b) parent[std::max(a, b)] = std::min(a, b);
@@ -106,16 +105,14 @@ ExactComponents components(std::size_t n, const std::vector<Contact> &candidates
   ExactComponents cc;
   cc.comp_of.assign(n, kNoBody);
   std::vector<std::uint32_t> size;
-  for (std::uint32_t b = 0; b < n; ++b) {
-    if (parent[b] == kNoBody) continue;
+  for (const std::uint32_t b : involved) {
     const std::uint32_t r = root(parent, b);
-    if (r == b) {
-      cc.comp_of[b] = static_cast<std::uint32_t>(size.size());
+    if (cc.comp_of[r] == kNoBody) {
+      cc.comp_of[r] = static_cast<std::uint32_t>(size.size());
       size.push_back(0);
       cc.spanning.push_back(0);
-    } else {
-      cc.comp_of[b] = cc.comp_of[r];
     }
+    cc.comp_of[b] = cc.comp_of[r];
     ++size[cc.comp_of[b]];
     if (shared[b]) cc.spanning[cc.comp_of[b]] = 1;
   }
@@ -123,8 +120,7 @@ ExactComponents components(std::size_t n, const std::vector<Contact> &candidates
   for (std::size_t c = 0; c < size.size(); ++c) cc.start[c + 1] = cc.start[c] + size[c];
   cc.bodies.resize(cc.start.back());
   std::vector<std::uint32_t> at(cc.start.begin(), cc.start.end() - 1);
-  for (std::uint32_t b = 0; b < n; ++b)
-    if (cc.comp_of[b] != kNoBody) cc.bodies[at[cc.comp_of[b]]++] = b;
+  for (const std::uint32_t b : involved) cc.bodies[at[cc.comp_of[b]]++] = b;
   return cc;
 }
 
