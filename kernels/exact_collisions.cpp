@@ -264,7 +264,7 @@ class ClusterPass {
   std::vector<std::uint32_t> version_;
   std::vector<long long> collisions_;  // collisions in which the slot has the lower id
   std::vector<ExactSum> virial_;       // and their virial
-  std::vector<Event> queue_;  // a heap, earliest on top
+  std::vector<Event> queue_;           // a heap, earliest on top
   ExactStats stats_;
 };
 
@@ -393,8 +393,8 @@ double step_reach(const Particles &p, const std::vector<double> &overrun, std::u
 // bounds, then the distance at the start against the two bodies' reaches; appended to `out`.
 template <class Same>
 void reaches_from(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-                  const NeighborList &list, const std::vector<double> &overrun,
-                  const FlownBody &f, Same &&same, std::vector<BodyPair> &out) {
+                  const NeighborList &list, const std::vector<double> &overrun, const FlownBody &f,
+                  Same &&same, std::vector<BodyPair> &out) {
   for (std::uint32_t q = list.pairs_start[f.body]; q < list.pairs_start[f.body + 1]; ++q) {
     const ListedPair &pair = list.pairs[list.pair_index[q]];
     const std::uint32_t other = pair.first == f.body ? pair.second : pair.first;
@@ -419,16 +419,17 @@ std::vector<BodyPair> reaches(const Context &cx, const Partition &pt,
     if (!pt.alive[g]) continue;
     for (const FlownBody &f : pt.flown[g])
       if (f.overrun > 0.0)
-        reaches_from(cx.p, cx.box, cx.inverse, cx.shape, cx.list, overrun, f,
-                     [&](std::uint32_t other) { return cx.group_of[other] == g; }, out);
+        reaches_from(
+            cx.p, cx.box, cx.inverse, cx.shape, cx.list, overrun, f,
+            [&](std::uint32_t other) { return cx.group_of[other] == g; }, out);
   }
   return out;
 }
 
 // Joins the clusters the pairs reach across, and appends the joined clusters (dead ones
 // marked) for solving; bodies of no cluster come in.
-void regroup(const std::vector<BodyPair> &joins,
-             const std::vector<Contact> &candidates, ExactScratch &scratch, Partition &pt) {
+void regroup(const std::vector<BodyPair> &joins, const std::vector<Contact> &candidates,
+             ExactScratch &scratch, Partition &pt) {
   std::vector<std::uint32_t> touched;  // bodies whose cluster is joined
   const auto take = [&](std::uint32_t b) {
     if (scratch.parent[b] == kNone) {
@@ -556,8 +557,7 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
 }
 
 std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const Shape &shape,
-                                      const NeighborList &list,
-                                      const std::vector<FlownBody> &flown,
+                                      const NeighborList &list, const std::vector<FlownBody> &flown,
                                       const std::vector<std::int64_t> &cluster,
                                       std::vector<double> &overrun) {
   std::vector<BodyPair> out;
@@ -566,8 +566,9 @@ std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const 
   const Vec3 inverse = box.inverse_length();
   for (const FlownBody &f : flown)
     if (f.overrun > 0.0)
-      reaches_from(p, box, inverse, shape, list, overrun, f,
-                   [&](std::uint32_t other) { return cluster[other] == cluster[f.body]; }, out);
+      reaches_from(
+          p, box, inverse, shape, list, overrun, f,
+          [&](std::uint32_t other) { return cluster[other] == cluster[f.body]; }, out);
   for (const FlownBody &f : flown) overrun[f.body] = 0.0;
   distinct_pairs(out);
   return out;

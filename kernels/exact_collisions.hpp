@@ -108,13 +108,12 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
                         const ExactSettings &settings, ExactScratch &scratch,
                         std::vector<FlownBody> &flown);
 
-// The listed pairs (each once, lower index first) whose bodies lie in different clusters (`cluster`, a
-// label by body; -1 for none) and could have touched in the step given the flown bodies'
-// overruns: the test collide_exactly uses between its clusters. `overrun` is scratch (by body,
-// zeros on entry and on return).
+// The listed pairs (each once, lower index first) whose bodies lie in different clusters
+// (`cluster`, a label by body; -1 for none) and could have touched in the step given the flown
+// bodies' overruns: the test collide_exactly uses between its clusters. `overrun` is scratch (by
+// body, zeros on entry and on return).
 std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const Shape &shape,
-                                      const NeighborList &list,
-                                      const std::vector<FlownBody> &flown,
+                                      const NeighborList &list, const std::vector<FlownBody> &flown,
                                       const std::vector<std::int64_t> &cluster,
                                       std::vector<double> &overrun);
 

@@ -129,6 +129,45 @@ ExactClusters exact_clusters(const ExactPieces &r) {
   return ec;
 }
 
+namespace {
+
+// The pairs inside each cluster of `problem` whose centres are closer than `near`, indexed by
+// body as build_neighbor_list does.
+void list_near_pairs(const ExactClusters &ec, const Box &box, double near, ExactProblem &problem) {
+  const std::size_t n = problem.piece.size();
+  const Particles &p = problem.bodies;
+  NeighborList &list = problem.list;
+  list.pairs.clear();
+  const Vec3 inverse = box.inverse_length();
+  for (std::uint32_t first = 0; first < n;) {
+    const std::uint32_t c = ec.cluster_of[problem.piece[first]];
+    const std::uint32_t last = first + ec.size(c);
+    for (std::uint32_t a = first; a < last; ++a)
+      for (std::uint32_t b = a + 1; b < last; ++b) {
+        const Vec3 r = box.minimum_image(p.position(b) - p.position(a), inverse);
+        if (norm2(r) >= near * near) continue;
+        ListedPair pair;
+        pair.first = a;
+        pair.second = b;
+        list.pairs.push_back(pair);
+      }
+    first = last;
+  }
+  list.active = list.bodies = n;
+  list.pairs_start.assign(n + 1, 0);
+  for (const ListedPair &pair : list.pairs)
+    ++list.pairs_start[pair.first + 1], ++list.pairs_start[pair.second + 1];
+  for (std::size_t k = 0; k < n; ++k) list.pairs_start[k + 1] += list.pairs_start[k];
+  list.pair_index.resize(2 * list.pairs.size());
+  std::vector<std::uint32_t> at(list.pairs_start.begin(), list.pairs_start.end() - 1);
+  for (std::uint32_t q = 0; q < list.pairs.size(); ++q) {
+    list.pair_index[at[list.pairs[q].first]++] = q;
+    list.pair_index[at[list.pairs[q].second]++] = q;
+  }
+}
+
+}  // namespace
+
 void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vector<char> &take,
                    const Box &box, double near, ExactProblem &problem) {
   std::vector<std::uint32_t> work(r.bodies.size(), kDegreeUnknown);  // piece body -> work
@@ -163,34 +202,7 @@ void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vec
       problem.joins.emplace_back(a, b);
     }
   }
-  // The near pairs inside each taken cluster, indexed by body as build_neighbor_list does.
-  NeighborList &list = problem.list;
-  list.pairs.clear();
-  const Vec3 inverse = box.inverse_length();
-  for (std::uint32_t first = 0; first < n;) {
-    const std::uint32_t c = ec.cluster_of[problem.piece[first]];
-    const std::uint32_t last = first + ec.size(c);
-    for (std::uint32_t a = first; a < last; ++a)
-      for (std::uint32_t b = a + 1; b < last; ++b) {
-        const Vec3 r = box.minimum_image(p.position(b) - p.position(a), inverse);
-        if (norm2(r) >= near * near) continue;
-        ListedPair pair;
-        pair.first = a;
-        pair.second = b;
-        list.pairs.push_back(pair);
-      }
-    first = last;
-  }
-  list.active = list.bodies = n;
-  list.pairs_start.assign(n + 1, 0);
-  for (const ListedPair &pair : list.pairs) ++list.pairs_start[pair.first + 1], ++list.pairs_start[pair.second + 1];
-  for (std::size_t k = 0; k < n; ++k) list.pairs_start[k + 1] += list.pairs_start[k];
-  list.pair_index.resize(2 * list.pairs.size());
-  std::vector<std::uint32_t> at(list.pairs_start.begin(), list.pairs_start.end() - 1);
-  for (std::uint32_t q = 0; q < list.pairs.size(); ++q) {
-    list.pair_index[at[list.pairs[q].first]++] = q;
-    list.pair_index[at[list.pairs[q].second]++] = q;
-  }
+  list_near_pairs(ec, box, near, problem);
 }
 
 ExactResult exact_result(std::int64_t id, std::int64_t label, std::uint32_t size,

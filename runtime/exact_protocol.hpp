@@ -38,11 +38,11 @@ struct ExactPieces {
     double state[kExactState] = {};
   };
   struct Edge {
-    std::int64_t a = 0, b = 0;  // a < b
+    std::int64_t a = 0, b = 0;   // a < b
     std::int32_t candidate = 0;  // 1: a candidate; 0: a join
   };
-  std::vector<Body> bodies;  // by id after tidy()
-  std::vector<Edge> edges;   // by (a, b) after tidy()
+  std::vector<Body> bodies;                                   // by id after tidy()
+  std::vector<Edge> edges;                                    // by (a, b) after tidy()
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // edges' bodies (after tidy())
 
   // Sorts and drops duplicates, keeping a body's largest known degree (its owner's, which

@@ -7,16 +7,17 @@
 //      bodies it advances; a component none of whose bodies other ranks hold is a whole
 //      cluster and is solved here (collide_once); the others are *spanning*;
 //   2. each spanning component goes as a piece (bodies at the step's start, edges, the owned
-//      bodies' listed pairs and degrees) to every owner and holder of its bodies; a rank merges
-//      what it gets with its own and solves every complete merged cluster that has a body it
-//      advances, on a scratch problem: the same bodies, edges and pairs give the same bits on
-//      every rank; on more than two ranks a results exchange sends them where a cluster
-//      arrived in part (the argument of runtime/spanning_clusters.cpp carries over: edges, like
-//      contacts, are known to the owners of both bodies);
+//      bodies' degrees) to every owner and holder of its bodies; a rank merges what it gets
+//      with its own and solves every complete merged cluster that has a body it advances, on
+//      a scratch problem: the same bodies and edges give the same bits on every rank. On two
+//      ranks one exchange gives every rank its clusters whole (the argument of
+//      runtime/spanning_clusters.cpp carries over: edges, like contacts, are known to the
+//      owners of both bodies); on more, pieces are forwarded until they do (forward_pieces);
 //   3. the overrun check (overrun_reaches) over this rank's listed pairs: the joins it finds
 //      are found by the owners of both bodies, since both hold both bodies' results;
 //   4. one max-reduction: new joins anywhere, a body left unresolved, the largest reach. With
-//      joins, the next round solves again the components they changed.
+//      joins, the next round solves again what they changed (on two ranks only that; on more,
+//      everything, see collide_on_ranks).
 // This is the kernel's own loop (collide_exactly: solve, check, join, solve the joined again)
 // with ranks in it, so the final clusters are the one-rank run's and so are the bits. Each
 // collision and its virial is counted by the owner of its lower-id body (FlownBody); the
@@ -135,7 +136,7 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
   round.size.assign(n, 0);
   round.flown_at.assign(n, kNoBody);
   round.dirty.assign(n, 1);
-  const bool incremental = comm_.size() == 2 && !results_exchange_;
+  const bool incremental = comm_.size() == 2 && !results_path();
   std::vector<double> overrun_scratch;
   for (;;) {
     const ExactComponents cc = components(n, contacts_, round.joins, shared_);
@@ -149,8 +150,8 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
     solve_local_components(round, cc, changed);
     solve_spanning_components(round, cc, changed);
     const std::vector<FlownBody> flown = round.current();
-    const std::vector<BodyPair> joins = overrun_reaches(
-        particles_, scene_.box, scene_.shape, list_, flown, round.label, overrun_scratch);
+    const std::vector<BodyPair> joins = overrun_reaches(particles_, scene_.box, scene_.shape, list_,
+                                                        flown, round.label, overrun_scratch);
     double largest = 0.0;
     for (const FlownBody &f : flown)
       largest = std::max(largest, particles_.motion_bound[f.body] + f.overrun);
@@ -161,9 +162,10 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
       flags = comm_.max("exact_round", flags);
     }
     if (flags[1] > 0.0)
-      fail(fmt::format("step {}: a cluster of the exact method that spans ranks reached a rank "
-                       "only in part ({} bodies left unsolved)",
-                       step_ + 1, flags[1]));
+      fail(
+          fmt::format("step {}: a cluster of the exact method that spans ranks reached a rank "
+                      "only in part ({} bodies left unsolved)",
+                      step_ + 1, flags[1]));
     if (flags[0] == 0.0) {
       reach = flags[2];
       flown_ = flown;
@@ -172,9 +174,12 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
     for (const auto &[a, b] : joins)  // each join counted by the owner of its lower-id body
       round.work.regrown += (particles_.id[a] < particles_.id[b] ? a : b) < owned_;
     // On two ranks every rank holding a body of a changed cluster gets the changed piece (the
-    // argument of one exchange), so only the changed components go again. With more, a rank
-    // may know a cluster from the results alone and cannot tell it changed: all go again.
+    // argument of one exchange), so only the changed components go again, merged with the
+    // earlier pieces. With more, a rank may know a cluster only through pieces forwarded by
+    // others and cannot tell it changed; an earlier piece could even make a changed cluster
+    // look complete: all go again, and the step's earlier pieces are dropped.
     std::fill(round.dirty.begin(), round.dirty.end(), incremental ? 0 : 1);
+    if (!incremental) round.pieces = ExactPieces();
     for (const auto &[a, b] : joins) round.dirty[a] = round.dirty[b] = 1;
     round.joins.insert(round.joins.end(), joins.begin(), joins.end());
   }
@@ -215,6 +220,7 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
                                            const std::vector<char> &changed) {
   std::vector<std::int64_t> fresh = exchange_pieces(round, cc, changed);
   std::sort(fresh.begin(), fresh.end());
+  if (comm_.size() > 2) forward_pieces(round, fresh);
   ExactPieces &pieces = round.pieces;
   const ExactClusters ec = exact_clusters(pieces);
   // Of the renewed clusters' bodies: the local index if advanced here.
@@ -235,15 +241,15 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
       round.forget(it->second);
       held = true;
     }
-    take[c] = ec.complete[c] && held && (!results_exchange_ || where[*first] < owned_);
+    take[c] = ec.complete[c] && held && (!results_path() || where[*first] < owned_);
   }
   ExactProblem &problem = exact_problem_;
   const double near = scene_.shape.length + scene_.shape.diameter + 2.0 * list_.skin;
   exact_problem(pieces, ec, take, scene_.box, near, problem);
   std::vector<FlownBody> flown;
-  round.work += collide_once(problem.bodies, scene_.box, scene_.shape, problem.list,
-                             problem.candidates, problem.joins, scene_.dt, exact_settings_,
-                             exact_scratch_, flown);
+  round.work +=
+      collide_once(problem.bodies, scene_.box, scene_.shape, problem.list, problem.candidates,
+                   problem.joins, scene_.dt, exact_settings_, exact_scratch_, flown);
   // Every body of a solved cluster, as a result (by work index).
   std::vector<const FlownBody *> flown_of(problem.piece.size(), nullptr);
   for (const FlownBody &f : flown) flown_of[f.body] = &f;
@@ -251,15 +257,73 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
   for (std::uint32_t k = 0; k < problem.piece.size(); ++k) {
     const std::uint32_t pb = problem.piece[k];
     const std::uint32_t c = ec.cluster_of[pb];
-    results.push_back(exact_result(pieces.bodies[pb].id,
-                                   pieces.bodies[ec.members[ec.start[c]]].id, ec.size(c),
-                                   flown_of[k]));
+    results.push_back(exact_result(pieces.bodies[pb].id, pieces.bodies[ec.members[ec.start[c]]].id,
+                                   ec.size(c), flown_of[k]));
     if (where[pb] != kNoBody) settle_exact(round, where[pb], results.back());
   }
-  if (comm_.size() > 2 || results_exchange_) exchange_exact_results(round, results);
+  if (results_path()) exchange_exact_results(round, results);
   // Every advanced body of a spanning cluster is in its owner's piece, which came here.
   round.unresolved = 0;
   for (const std::uint32_t b : where) round.unresolved += b != kNoBody && round.label[b] == -1;
+}
+
+// On more than two ranks a rank can get a cluster in part (a chain X-A-B, X held here, A and
+// B owned by two other ranks, B not held here: runtime/spanning_clusters.cpp). Until no rank
+// lacks a piece of a renewed cluster with a body it advances, every rank forwards what it
+// knows of the renewed clusters to the owners and holders of their bodies it holds: each
+// forwarding reaches one rank further along the cluster (an edge's two owners hold both its
+// bodies, so the ranks of a cluster are linked by bodies they share). `fresh` gains the
+// forwarded bodies.
+void Simulation::forward_pieces(ExactRound &round, std::vector<std::int64_t> &fresh) {
+  ExactPieces &pieces = round.pieces;
+  for (int hop = 0; hop < comm_.size(); ++hop) {
+    const ExactClusters ec = exact_clusters(pieces);
+    std::vector<char> renewed(ec.count(), 0);
+    double needy = 0.0;
+    for (std::size_t c = 0; c < ec.count(); ++c) {
+      const std::uint32_t *first = ec.members.data() + ec.start[c];
+      const std::uint32_t *last = ec.members.data() + ec.start[c + 1];
+      renewed[c] = std::any_of(first, last, [&](std::uint32_t b) {
+        return std::binary_search(fresh.begin(), fresh.end(), pieces.bodies[b].id);
+      });
+      if (!renewed[c] || ec.complete[c]) continue;
+      for (const std::uint32_t *b = first; b != last; ++b) {
+        const auto it = index_.find(pieces.bodies[*b].id);
+        if (it != index_.end() && it->second < advanced()) needy = 1.0;
+      }
+    }
+    {
+      ScopedRegion r(timers_, Region::kAgree);
+      if (comm_.max("exact_round", {needy})[0] == 0.0) return;
+    }
+    std::vector<std::vector<ExactPieces::Edge>> edges(ec.count());
+    for (std::size_t k = 0; k < pieces.edges.size(); ++k)
+      edges[ec.cluster_of[pieces.ends[k].first]].push_back(pieces.edges[k]);
+    std::vector<std::vector<char>> &out = spanning_out_;
+    for (auto &o : out) o.clear();
+    std::vector<ExactPieces::Body> bodies;
+    std::vector<int> targets;
+    for (std::size_t c = 0; c < ec.count(); ++c) {
+      if (!renewed[c]) continue;
+      bodies.clear();
+      targets.clear();
+      for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k) {
+        bodies.push_back(pieces.bodies[ec.members[k]]);
+        add_targets(bodies.back().id, targets);
+      }
+      std::sort(targets.begin(), targets.end());
+      targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+      for (int r : targets) pack_piece(out[domain_.partner_slot(r)], bodies, edges[c]);
+    }
+    const std::size_t first_new = pieces.bodies.size();
+    for (const auto &buf : comm_.exchange("exact_pieces", domain_.partners(), out))
+      unpack_pieces(buf, pieces);
+    for (std::size_t k = first_new; k < pieces.bodies.size(); ++k)
+      fresh.push_back(pieces.bodies[k].id);
+    std::sort(fresh.begin(), fresh.end());
+    fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
+    pieces.tidy();
+  }
 }
 
 void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactResult &r) {
@@ -316,14 +380,16 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
   }
   for (const auto &buf : comm_.exchange("exact_pieces", partners, out)) unpack_pieces(buf, pieces);
   std::vector<std::int64_t> fresh;
-  for (std::size_t k = first_new; k < pieces.bodies.size(); ++k) fresh.push_back(pieces.bodies[k].id);
+  for (std::size_t k = first_new; k < pieces.bodies.size(); ++k)
+    fresh.push_back(pieces.bodies[k].id);
   pieces.tidy();
   return fresh;
 }
 
 // For clusters that reached a rank only in part: every solved cluster's results to the owners
 // and holders of its bodies that this rank knows (duplicates carry the same bits).
-void Simulation::exchange_exact_results(ExactRound &round, const std::vector<ExactResult> &results) {
+void Simulation::exchange_exact_results(ExactRound &round,
+                                        const std::vector<ExactResult> &results) {
   const auto &partners = domain_.partners();
   std::vector<std::vector<char>> &out = spanning_out_;
   for (auto &o : out) o.clear();

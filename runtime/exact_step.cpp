@@ -112,8 +112,8 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
       if (comm_.size() > 1) {
         stats = collide_on_ranks(reach);
       } else {
-        stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, contacts_,
-                                scene_.dt, exact_settings_, exact_scratch_, flown_);
+        stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, contacts_, scene_.dt,
+                                exact_settings_, exact_scratch_, flown_);
         for (const FlownBody &f : flown_)
           reach = std::max(reach, particles_.motion_bound[f.body] + f.overrun);
       }

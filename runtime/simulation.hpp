@@ -269,6 +269,11 @@ class Simulation {
                                  const std::vector<char> &changed);
   std::vector<std::int64_t> exchange_pieces(ExactRound &round, const ExactComponents &cc,
                                             const std::vector<char> &changed);
+  void forward_pieces(ExactRound &round, std::vector<std::int64_t> &fresh);
+  // --results-exchange for the exact method: on two ranks, where one exchange of pieces gives
+  // every rank its clusters whole (on more, pieces are forwarded instead and the switch is
+  // ignored: a solver could not reach every rank that needs its results).
+  bool results_path() const { return results_exchange_ && comm_.size() == 2; }
   void exchange_exact_results(ExactRound &round, const std::vector<ExactResult> &results);
   void settle_exact(ExactRound &round, std::uint32_t body, const ExactResult &result);
   ExactStats exact_counts(const ExactRound &round, const std::vector<FlownBody> &flown) const;

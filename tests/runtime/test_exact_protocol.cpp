@@ -1,10 +1,10 @@
 // The exact method's clusters across ranks without MPI (runtime/exact_protocol.hpp): pieces
 // merged and their completeness, the wire format, the scratch problem and the results.
-#include "runtime/exact_protocol.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cstring>
+
+#include "runtime/exact_protocol.hpp"
 
 namespace hardrod {
 namespace {
