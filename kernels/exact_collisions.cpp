@@ -411,11 +411,14 @@ void reaches_from(const Particles &p, const Box &box, const Vec3 &inverse, const
   }
 }
 
-// Such pairs from every live cluster's flown bodies: their clusters are solved together.
+// Such pairs from the flown bodies of the live clusters [from, count): their clusters are
+// solved together. The clusters before `from` were checked when they were solved, and a pair
+// between one of them and a cluster solved since would be found from the new cluster's side
+// (the test is symmetric, and only the new cluster's overruns changed).
 std::vector<BodyPair> reaches(const Context &cx, const Partition &pt,
-                              const std::vector<double> &overrun) {
+                              const std::vector<double> &overrun, std::size_t from) {
   std::vector<BodyPair> out;
-  for (std::size_t g = 0; g < pt.count(); ++g) {
+  for (std::size_t g = from; g < pt.count(); ++g) {
     if (!pt.alive[g]) continue;
     for (const FlownBody &f : pt.flown[g])
       if (f.overrun > 0.0)
@@ -525,7 +528,7 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
     for (std::size_t g = 0; g < pt.count(); ++g)
       if (pt.alive[g])
         for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = f.overrun;
-    auto joins = reaches(cx, pt, scratch.overrun);
+    auto joins = reaches(cx, pt, scratch.overrun, from);
     distinct_pairs(joins);
     for (std::size_t g = 0; g < pt.count(); ++g)
       for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = 0.0;
