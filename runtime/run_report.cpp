@@ -183,9 +183,9 @@ nlohmann::json exact_json(Simulation &sim) {
   const ExactRecord &mine = sim.exact_record();
   ExactRecord r = mine;
   ExactStats &t = r.totals;
-  for (long long *v : {&t.candidates, &t.clusters, &t.collisions, &t.events, &t.searches,
-                       &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown,
-                       &t.fallbacks, &t.grazes})
+  for (long long *v :
+       {&t.candidates, &t.clusters, &t.collisions, &t.events, &t.searches, &t.repredictions,
+        &t.root_iterations, &t.unconverged, &t.regrown, &t.fallbacks, &t.grazes})
     *v = comm.sum("summary", *v);
   t.largest_cluster = static_cast<long long>(
       comm.max("summary", {static_cast<double>(mine.totals.largest_cluster)})[0]);

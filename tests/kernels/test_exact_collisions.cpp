@@ -147,7 +147,6 @@ TEST(ExactCollisions, RodsKeepMomentumAngularMomentumAndEnergy) {
   EXPECT_LT(s.stats.root_iterations, 20);
 }
 
-
 // The clusters' labels (the root of a union-find, the smallest index) of candidates and joins.
 std::vector<std::int64_t> labels(std::size_t n, const std::vector<Contact> &candidates,
                                  const std::vector<BodyPair> &joins) {
