@@ -6,6 +6,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "kernels/union_find.hpp"
+
 namespace hardrod {
 
 namespace {
@@ -36,15 +38,8 @@ double kinetic_energy_of(const Particles &p, std::uint32_t b, double mass, doubl
 // Disjoint-set forest over the compact body indices of this step's contacts.
 struct Clusters {
   std::vector<std::uint32_t> parent;
-  std::uint32_t root(std::uint32_t a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  }
-  void join(std::uint32_t a, std::uint32_t b) {
-    a = root(a);
-    b = root(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
+  std::uint32_t root(std::uint32_t a) { return set_root(parent, a); }
+  void join(std::uint32_t a, std::uint32_t b) { join_sets(parent, a, b); }
 };
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "kernels/contact_detection.hpp"
+#include "kernels/union_find.hpp"
 
 namespace hardrod {
 
@@ -268,17 +269,6 @@ class ClusterPass {
   ExactStats stats_;
 };
 
-std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
-}
-// The smaller body index is the root: the partition does not depend on the order of joins.
-void join(std::vector<std::uint32_t> &parent, std::uint32_t a, std::uint32_t b) {
-  a = root(parent, a);
-  b = root(parent, b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
-}
-
 // The clusters, flat: cluster g's bodies (ascending) are bodies[body_start[g] ..
 // body_start[g + 1]), its candidates cands[cand_start[g] .. cand_start[g + 1]). A cluster
 // solved again after a join is appended and the old ones marked dead.
@@ -300,7 +290,7 @@ struct Partition {
     std::vector<std::size_t> size;
     for (std::uint32_t b = 0; b < parent.size(); ++b) {
       if (parent[b] == kNone) continue;
-      const std::uint32_t r = root(parent, b);
+      const std::uint32_t r = set_root(parent, b);
       if (r == b) {
         group_of[b] = static_cast<std::uint32_t>(size.size());
         size.push_back(0);
@@ -449,16 +439,16 @@ void regroup(const std::vector<BodyPair> &joins, const std::vector<Contact> &can
   for (const auto &[a, b] : joins) {
     take(a);
     take(b);
-    join(scratch.parent, a, b);
+    join_sets(scratch.parent, a, b);
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> members;
-  for (const std::uint32_t b : touched) members.emplace_back(root(scratch.parent, b), b);
+  for (const std::uint32_t b : touched) members.emplace_back(set_root(scratch.parent, b), b);
   std::sort(members.begin(), members.end());
   std::vector<std::pair<std::uint32_t, const Contact *>> cands;
   for (const Contact &c : candidates)
     if (std::binary_search(members.begin(), members.end(),
-                           std::make_pair(root(scratch.parent, c.i), c.i)))
-      cands.emplace_back(root(scratch.parent, c.i), &c);
+                           std::make_pair(set_root(scratch.parent, c.i), c.i)))
+      cands.emplace_back(set_root(scratch.parent, c.i), &c);
   std::stable_sort(cands.begin(), cands.end(),
                    [](const auto &x, const auto &y) { return x.first < y.first; });
   pt.add(members, cands, scratch.label);
@@ -485,8 +475,8 @@ void first_partition(const NeighborList &list, const std::vector<Contact> &candi
   };
   for (const Contact &c : candidates) take(c.i), take(c.j);
   for (const auto &[a, b] : joins) take(a), take(b);
-  for (const Contact &c : candidates) join(scratch.parent, c.i, c.j);
-  for (const auto &[a, b] : joins) join(scratch.parent, a, b);
+  for (const Contact &c : candidates) join_sets(scratch.parent, c.i, c.j);
+  for (const auto &[a, b] : joins) join_sets(scratch.parent, a, b);
   pt.first(scratch.parent, candidates, scratch.label);
 }
 

@@ -5,6 +5,7 @@
 // rank count. One rank is the same code with no partners.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <map>
@@ -63,6 +64,12 @@ class Communicator {
   int size_ = 1;
   std::map<std::string, TrafficCounter> traffic_;
 };
+
+// A list of ranks (partners to send to), ascending and each once.
+inline void sort_unique(std::vector<int> &ranks) {
+  std::sort(ranks.begin(), ranks.end());
+  ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
+}
 
 // Little helpers to pack plain values into byte buffers.
 template <typename T>

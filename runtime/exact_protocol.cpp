@@ -5,6 +5,7 @@
 #include <numeric>
 #include <type_traits>
 
+#include "kernels/union_find.hpp"
 #include "runtime/comm.hpp"
 
 namespace hardrod {
@@ -27,11 +28,6 @@ void unpack_array(const std::vector<char> &buf, std::size_t &off, std::vector<T>
   out.resize(first + n);
   std::memcpy(static_cast<void *>(out.data() + first), buf.data() + off, n * sizeof(T));
   off += n * sizeof(T);
-}
-
-std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
 }
 
 }  // namespace
@@ -96,36 +92,21 @@ void unpack_pieces(const std::vector<char> &buf, ExactPieces &r) {
 
 ExactClusters exact_clusters(const ExactPieces &r) {
   const auto n = static_cast<std::uint32_t>(r.bodies.size());
-  std::vector<std::uint32_t> parent(n);
+  std::vector<std::uint32_t> parent(n), all(n), degree(n, 0);
   std::iota(parent.begin(), parent.end(), 0u);
-  std::vector<std::uint32_t> degree(n, 0);
+  std::iota(all.begin(), all.end(), 0u);
   for (const auto &[a, b] : r.ends) {
     ++degree[a], ++degree[b];
-    const std::uint32_t ra = root(parent, a), rb = root(parent, b);
-    if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);  // the lowest id is the root
+    join_sets(parent, a, b);  // bodies are in id order: a cluster's root has its lowest id
   }
   ExactClusters ec;
-  ec.cluster_of.assign(n, kDegreeUnknown);
-  std::vector<std::uint32_t> size;
+  ec.cluster_of.assign(n, kNoSet);
+  ec.complete.assign(list_sets(parent, all, ec.cluster_of, ec.start, ec.members), 1);
   for (std::uint32_t b = 0; b < n; ++b) {
-    const std::uint32_t rb = root(parent, b);
-    if (rb == b) {
-      ec.cluster_of[b] = static_cast<std::uint32_t>(size.size());
-      size.push_back(0);
-      ec.complete.push_back(1);
-    } else {
-      ec.cluster_of[b] = ec.cluster_of[rb];
-    }
-    ++size[ec.cluster_of[b]];
     const ExactPieces::Body &body = r.bodies[b];
     if (body.degree == kDegreeUnknown || body.degree != degree[b])
       ec.complete[ec.cluster_of[b]] = 0;
   }
-  ec.start.assign(size.size() + 1, 0);
-  for (std::size_t c = 0; c < size.size(); ++c) ec.start[c + 1] = ec.start[c] + size[c];
-  ec.members.resize(n);
-  std::vector<std::uint32_t> at(ec.start.begin(), ec.start.end() - 1);
-  for (std::uint32_t b = 0; b < n; ++b) ec.members[at[ec.cluster_of[b]]++] = b;
   return ec;
 }
 

@@ -28,6 +28,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "kernels/union_find.hpp"
 #include "runtime/exact_protocol.hpp"
 #include "runtime/simulation.hpp"
 
@@ -37,16 +38,11 @@ namespace {
 
 constexpr std::uint32_t kNoBody = std::numeric_limits<std::uint32_t>::max();
 
-std::uint32_t root(std::vector<std::uint32_t> &parent, std::uint32_t a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
-}
-
 }  // namespace
 
 // The connected components of a round's edges over the advanced bodies.
 struct ExactComponents {
-  std::vector<std::uint32_t> comp_of;  // by body; kNoBody: in no edge
+  std::vector<std::uint32_t> comp_of;  // by body; kNoSet: in no edge
   std::vector<std::uint32_t> start{0}, bodies;
   std::vector<char> spanning;  // by component: a body other ranks hold
 
@@ -97,32 +93,27 @@ ExactComponents components(std::size_t n, const std::vector<Contact> &candidates
   const auto edge = [&](std::uint32_t a, std::uint32_t b) {
     for (const std::uint32_t x : {a, b})
       if (parent[x] == kNoBody) parent[x] = x, involved.push_back(x);
-    a = root(parent, a);
-    b = root(parent, b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    join_sets(parent, a, b);
   };
   for (const Contact &c : candidates) edge(c.i, c.j);
   for (const auto &[a, b] : joins) edge(a, b);
   ExactComponents cc;
-  cc.comp_of.assign(n, kNoBody);
-  std::vector<std::uint32_t> size;
-  for (const std::uint32_t b : involved) {
-    const std::uint32_t r = root(parent, b);
-    if (cc.comp_of[r] == kNoBody) {
-      cc.comp_of[r] = static_cast<std::uint32_t>(size.size());
-      size.push_back(0);
-      cc.spanning.push_back(0);
-    }
-    cc.comp_of[b] = cc.comp_of[r];
-    ++size[cc.comp_of[b]];
+  cc.comp_of.assign(n, kNoSet);
+  cc.spanning.assign(list_sets(parent, involved, cc.comp_of, cc.start, cc.bodies), 0);
+  for (const std::uint32_t b : involved)
     if (shared[b]) cc.spanning[cc.comp_of[b]] = 1;
-  }
-  cc.start.assign(size.size() + 1, 0);
-  for (std::size_t c = 0; c < size.size(); ++c) cc.start[c + 1] = cc.start[c] + size[c];
-  cc.bodies.resize(cc.start.back());
-  std::vector<std::uint32_t> at(cc.start.begin(), cc.start.end() - 1);
-  for (const std::uint32_t b : involved) cc.bodies[at[cc.comp_of[b]]++] = b;
   return cc;
+}
+
+// By cluster: whether it has a body of this round's pieces (`fresh`, sorted ids), i.e. is new
+// or changed since the last round.
+std::vector<char> renewed_clusters(const ExactPieces &pieces, const ExactClusters &ec,
+                                   const std::vector<std::int64_t> &fresh) {
+  std::vector<char> renewed(ec.count(), 0);
+  for (std::size_t c = 0; c < ec.count(); ++c)
+    for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1] && !renewed[c]; ++k)
+      renewed[c] = std::binary_search(fresh.begin(), fresh.end(), pieces.bodies[ec.members[k]].id);
+  return renewed;
 }
 
 }  // namespace
@@ -225,14 +216,12 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
   const ExactClusters ec = exact_clusters(pieces);
   // Of the renewed clusters' bodies: the local index if advanced here.
   std::vector<std::uint32_t> where(pieces.bodies.size(), kNoBody);
-  std::vector<char> renewed(ec.count(), 0), take(ec.count(), 0);
+  const std::vector<char> renewed = renewed_clusters(pieces, ec, fresh);
+  std::vector<char> take(ec.count(), 0);
   for (std::size_t c = 0; c < ec.count(); ++c) {
+    if (!renewed[c]) continue;
     const std::uint32_t *first = ec.members.data() + ec.start[c];
     const std::uint32_t *last = ec.members.data() + ec.start[c + 1];
-    renewed[c] = std::any_of(first, last, [&](std::uint32_t b) {
-      return std::binary_search(fresh.begin(), fresh.end(), pieces.bodies[b].id);
-    });
-    if (!renewed[c]) continue;
     bool held = false;
     for (const std::uint32_t *b = first; b != last; ++b) {
       const auto it = index_.find(pieces.bodies[*b].id);
@@ -278,17 +267,12 @@ void Simulation::forward_pieces(ExactRound &round, std::vector<std::int64_t> &fr
   ExactPieces &pieces = round.pieces;
   for (int hop = 0; hop < comm_.size(); ++hop) {
     const ExactClusters ec = exact_clusters(pieces);
-    std::vector<char> renewed(ec.count(), 0);
+    const std::vector<char> renewed = renewed_clusters(pieces, ec, fresh);
     double needy = 0.0;
     for (std::size_t c = 0; c < ec.count(); ++c) {
-      const std::uint32_t *first = ec.members.data() + ec.start[c];
-      const std::uint32_t *last = ec.members.data() + ec.start[c + 1];
-      renewed[c] = std::any_of(first, last, [&](std::uint32_t b) {
-        return std::binary_search(fresh.begin(), fresh.end(), pieces.bodies[b].id);
-      });
       if (!renewed[c] || ec.complete[c]) continue;
-      for (const std::uint32_t *b = first; b != last; ++b) {
-        const auto it = index_.find(pieces.bodies[*b].id);
+      for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k) {
+        const auto it = index_.find(pieces.bodies[ec.members[k]].id);
         if (it != index_.end() && it->second < advanced()) needy = 1.0;
       }
     }
@@ -299,31 +283,38 @@ void Simulation::forward_pieces(ExactRound &round, std::vector<std::int64_t> &fr
     std::vector<std::vector<ExactPieces::Edge>> edges(ec.count());
     for (std::size_t k = 0; k < pieces.edges.size(); ++k)
       edges[ec.cluster_of[pieces.ends[k].first]].push_back(pieces.edges[k]);
-    std::vector<std::vector<char>> &out = spanning_out_;
-    for (auto &o : out) o.clear();
+    for (auto &o : spanning_out_) o.clear();
     std::vector<ExactPieces::Body> bodies;
-    std::vector<int> targets;
     for (std::size_t c = 0; c < ec.count(); ++c) {
       if (!renewed[c]) continue;
       bodies.clear();
-      targets.clear();
-      for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k) {
+      for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k)
         bodies.push_back(pieces.bodies[ec.members[k]]);
-        add_targets(bodies.back().id, targets);
-      }
-      std::sort(targets.begin(), targets.end());
-      targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
-      for (int r : targets) pack_piece(out[domain_.partner_slot(r)], bodies, edges[c]);
+      post_piece(bodies, edges[c]);
     }
-    const std::size_t first_new = pieces.bodies.size();
-    for (const auto &buf : comm_.exchange("exact_pieces", domain_.partners(), out))
-      unpack_pieces(buf, pieces);
-    for (std::size_t k = first_new; k < pieces.bodies.size(); ++k)
-      fresh.push_back(pieces.bodies[k].id);
+    swap_pieces(pieces, pieces.bodies.size(), fresh);
     std::sort(fresh.begin(), fresh.end());
     fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
-    pieces.tidy();
   }
+}
+
+// One piece into the messages (spanning_out_) to the owners and holders of its bodies.
+void Simulation::post_piece(const std::vector<ExactPieces::Body> &bodies,
+                            const std::vector<ExactPieces::Edge> &edges) {
+  std::vector<int> targets;
+  for (const ExactPieces::Body &b : bodies) add_targets(b.id, targets);
+  sort_unique(targets);
+  for (int r : targets) pack_piece(spanning_out_[domain_.partner_slot(r)], bodies, edges);
+}
+
+// The posted pieces exchanged with the partners and what arrives added to `pieces`, tidied;
+// `fresh` gains the ids of every body added to `pieces` since it held `first` bodies.
+void Simulation::swap_pieces(ExactPieces &pieces, std::size_t first,
+                             std::vector<std::int64_t> &fresh) {
+  for (const auto &buf : comm_.exchange("exact_pieces", domain_.partners(), spanning_out_))
+    unpack_pieces(buf, pieces);
+  for (std::size_t k = first; k < pieces.bodies.size(); ++k) fresh.push_back(pieces.bodies[k].id);
+  pieces.tidy();
 }
 
 void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactResult &r) {
@@ -338,10 +329,8 @@ void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactRes
 // the bodies in this round's pieces.
 std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const ExactComponents &cc,
                                                       const std::vector<char> &changed) {
-  const auto &partners = domain_.partners();
-  std::vector<std::vector<char>> &out = spanning_out_;
-  out.resize(partners.size());
-  for (auto &o : out) o.clear();
+  spanning_out_.resize(domain_.partners().size());
+  for (auto &o : spanning_out_) o.clear();
   ExactPieces &pieces = round.pieces;
   const std::size_t first_new = pieces.bodies.size();
   // Each body's edges here, as ids (a < b): its candidates and joins.
@@ -358,11 +347,9 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
   for (const Contact &ct : contacts_) add_edge(ct.i, ct.j, true);
   for (const auto &[a, b] : round.joins) add_edge(a, b, false);
   std::vector<ExactPieces::Body> bodies;
-  std::vector<int> targets;
   for (std::size_t c = 0; c < cc.count(); ++c) {
     if (!cc.spanning[c] || !changed[c]) continue;
     bodies.clear();
-    targets.clear();
     for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
       const std::uint32_t b = cc.bodies[k];
       ExactPieces::Body body;
@@ -370,19 +357,13 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
       body.degree = b < owned_ ? degree[b] : kDegreeUnknown;
       read_exact_state(particles_, b, body.state);
       bodies.push_back(body);
-      add_targets(body.id, targets);
     }
-    std::sort(targets.begin(), targets.end());
-    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
-    for (int r : targets) pack_piece(out[domain_.partner_slot(r)], bodies, edges[c]);
+    post_piece(bodies, edges[c]);
     pieces.bodies.insert(pieces.bodies.end(), bodies.begin(), bodies.end());
     pieces.edges.insert(pieces.edges.end(), edges[c].begin(), edges[c].end());
   }
-  for (const auto &buf : comm_.exchange("exact_pieces", partners, out)) unpack_pieces(buf, pieces);
   std::vector<std::int64_t> fresh;
-  for (std::size_t k = first_new; k < pieces.bodies.size(); ++k)
-    fresh.push_back(pieces.bodies[k].id);
-  pieces.tidy();
+  swap_pieces(pieces, first_new, fresh);
   return fresh;
 }
 
@@ -400,8 +381,7 @@ void Simulation::exchange_exact_results(ExactRound &round,
     targets.clear();
     while (end < results.size() && results[end].label == results[k].label)
       add_targets(results[end++].id, targets);
-    std::sort(targets.begin(), targets.end());
-    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    sort_unique(targets);
     const std::vector<ExactResult> cluster(results.begin() + static_cast<long>(k),
                                            results.begin() + static_cast<long>(end));
     for (int r : targets) pack_results(out[domain_.partner_slot(r)], cluster);
@@ -422,7 +402,7 @@ void Simulation::exchange_exact_results(ExactRound &round,
 ExactStats Simulation::exact_counts(const ExactRound &round,
                                     const std::vector<FlownBody> &flown) const {
   ExactStats s = round.work;
-  s.collisions = s.clusters = s.largest_cluster = s.fallbacks = s.candidates = 0;
+  s.collisions = s.clusters = s.largest_cluster = s.candidates = 0;
   s.virial = ExactSum();
   for (const FlownBody &f : flown) {
     if (f.body >= owned_) continue;
@@ -435,7 +415,6 @@ ExactStats Simulation::exact_counts(const ExactRound &round,
     s.largest_cluster = std::max<long long>(s.largest_cluster, round.size[b]);
   }
   for (const Contact &c : contacts_) s.candidates += c.i < owned_;
-  s.fallbacks = round.work.fallbacks;
   return s;
 }
 

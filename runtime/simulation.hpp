@@ -270,6 +270,9 @@ class Simulation {
   std::vector<std::int64_t> exchange_pieces(ExactRound &round, const ExactComponents &cc,
                                             const std::vector<char> &changed);
   void forward_pieces(ExactRound &round, std::vector<std::int64_t> &fresh);
+  void post_piece(const std::vector<ExactPieces::Body> &bodies,
+                  const std::vector<ExactPieces::Edge> &edges);
+  void swap_pieces(ExactPieces &pieces, std::size_t first, std::vector<std::int64_t> &fresh);
   // --results-exchange for the exact method: on two ranks, where one exchange of pieces gives
   // every rank its clusters whole (on more, pieces are forwarded instead and the switch is
   // ignored: a solver could not reach every rank that needs its results).

@@ -22,11 +22,6 @@ namespace {
 
 constexpr std::size_t kNone = static_cast<std::size_t>(-1);
 
-void sort_unique(std::vector<int> &v) {
-  std::sort(v.begin(), v.end());
-  v.erase(std::unique(v.begin(), v.end()), v.end());
-}
-
 }  // namespace
 
 // Returns the solver's statistics of the clusters counted here (those whose first contact's
