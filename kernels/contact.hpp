@@ -21,6 +21,9 @@ struct Contact {
   double inverse_mass = 0.0;       // k = 1/m_i + 1/m_j + |r_i x n|^2/I_i + |r_j x n|^2/I_j
   double approach_velocity = 0.0;  // u before resolution (< 0: approaching)
   double impulse = 0.0;            // accumulated lambda >= 0 along the normal
+  // The exact method's candidates only (contact_detection.hpp, StepAhead): the two free
+  // flights alone keep the pair apart all step, so its first search would find nothing.
+  bool apart = false;
 };
 
 // Canonical order of contacts: by (id_i, id_j). Every rank and thread count sees the same.

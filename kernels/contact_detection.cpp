@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "kernels/contact_time.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
@@ -51,19 +52,49 @@ void lower_to(double &target, double value) {
   }
 }
 
+// The exact method's test of bodies a and b (StepAhead, contact_detection.hpp): a candidate
+// when closer than D + reach, filled with what the clusters read (ids, depth, `apart`), the
+// distance as make_contact measures it.
+bool exact_candidate(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+                     std::uint32_t a, std::uint32_t b, double reach, double dt, Contact &c,
+                     double &distance) {
+  const std::uint32_t i = p.id[a] < p.id[b] ? a : b;
+  const std::uint32_t j = p.id[a] < p.id[b] ? b : a;
+  const double h = shape.half_length();
+  const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
+  const Vec3 ei = p.axis(i), ej = p.axis(j);
+  SegmentClosest sc;
+  if (h == 0.0)  // spheres: the centres' distance, segment_closest's bits (make_contact)
+    distance = std::sqrt(norm2(rij));
+  else
+    distance = std::sqrt((sc = segment_closest_inline(rij, ei, h, ej, h)).dist2);
+  if (!(distance < shape.diameter + reach)) return false;
+  c.i = i;
+  c.j = j;
+  c.id_i = p.id[i];
+  c.id_j = p.id[j];
+  c.depth = shape.diameter - distance;
+  const Flight fi{p.position(i), ei, p.velocity(i), p.angular_velocity(i), 0.0};
+  const Flight fj{p.position(i) + rij, ej, p.velocity(j), p.angular_velocity(j), 0.0};
+  c.apart = apart_in_flight(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin);
+  return true;
+}
+
 // The narrow phase of listed pair k (bodies at motion bounds summing to `moved`): a contact
 // if they overlap, and the pair's slack renewed from the distance measured. With `ahead`
 // (the exact method, see contact_detection.hpp) the bounds already hold the step's whole
 // flight while the bodies are still at its start: the pair is reported when its gap is below
 // the two flights, and the slack is renewed for the start.
 void measure(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-             NeighborList &list, std::size_t k, double moved, const double *ahead,
+             NeighborList &list, std::size_t k, double moved, const StepAhead *ahead,
              std::vector<Contact> &found, double &max_depth) {
   Contact c;
   double d = 0.0;
   ListedPair &pair = list.pairs[k];
-  const double reach = ahead ? 2.0 * (ahead[pair.first] + ahead[pair.second]) : 0.0;
-  if (make_contact(p, box, inverse, shape, pair.first, pair.second, c, d, reach)) {
+  const double reach = ahead ? 2.0 * (ahead->grow[pair.first] + ahead->grow[pair.second]) : 0.0;
+  if (ahead
+          ? exact_candidate(p, box, inverse, shape, pair.first, pair.second, reach, ahead->dt, c, d)
+          : make_contact(p, box, inverse, shape, pair.first, pair.second, c, d)) {
     max_depth = std::max(max_depth, c.depth);
     found.push_back(c);
   }
@@ -129,7 +160,7 @@ WatchedDetection::WatchedDetection(int threads)
       depth(static_cast<std::size_t>(threads)) {}
 
 void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
-                            NeighborList &list, WatchedDetection &shared, const double *ahead) {
+                            NeighborList &list, WatchedDetection &shared, const StepAhead *ahead) {
   const long n = static_cast<long>(list.active);
   ListedPair *pairs = list.pairs.data();
   const std::uint32_t *start = list.pairs_start.data();
@@ -194,7 +225,7 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
 
 DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
                                         NeighborList &list, WatchedDetection &shared,
-                                        std::vector<Contact> &contacts, const double *ahead) {
+                                        std::vector<Contact> &contacts, const StepAhead *ahead) {
   if (!shared.watching) {  // too many flagged: the full pass, now and until the next build
     list.watching = false;
     return detect_contacts_all_pairs(p, box, shape, list, contacts, ahead);
@@ -223,7 +254,7 @@ DetectionStats finish_watched_detection(const Particles &p, const Box &box, cons
 // whole list (detect_contacts_all_pairs), for any thread count.
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
                                NeighborList &list, std::vector<Contact> &contacts,
-                               const double *ahead) {
+                               const StepAhead *ahead) {
   if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts, ahead);
   // Threaded exactly when the integration is (particles.hpp).
   const int nthreads = team_threads(static_cast<long>(list.active));
@@ -235,7 +266,7 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
                                          NeighborList &list, std::vector<Contact> &contacts,
-                                         const double *ahead) {
+                                         const StepAhead *ahead) {
   const int nthreads = omp_get_max_threads();
   std::vector<std::vector<Contact>> found(nthreads);
   long long tests = 0;

@@ -239,12 +239,14 @@ struct PairState {
   bool inner_a = false, inner_b = false;
 };
 
-PairState pair_state(const Flight &a, const Flight &b, double h, double D, double t) {
+// From the closest points c of axes ea, eb at separation r = x_b - x_a, the bodies' rates
+// from their flights.
+PairState pair_state_from(const SegmentClosest &c, const Vec3 &r, const Vec3 &ea, const Vec3 &eb,
+                          const Flight &a, const Flight &b, double h, double D) {
   PairState st;
-  st.ea = a.axis(t);
-  st.eb = b.axis(t);
-  st.r = b.position(t) - a.position(t);
-  const SegmentClosest c = segment_closest_inline(st.r, st.ea, h, st.eb, h);
+  st.ea = ea;
+  st.eb = eb;
+  st.r = r;
   st.n = separating_normal(c, st.r, st.ea, st.eb, h);
   st.inner_a = std::abs(c.s) < h;
   st.inner_b = std::abs(c.t) < h;
@@ -262,6 +264,18 @@ PairState pair_state(const Flight &a, const Flight &b, double h, double D, doubl
   // whatever the round-off of the closest points (equal to it in exact arithmetic).
   fixed.g0 = -dot(st.n, st.r) - h * (std::abs(fixed.a.A) + std::abs(fixed.b.A)) - D;
   return st;
+}
+
+PairState pair_state(const Flight &a, const Flight &b, double h, double D, double t) {
+  const Vec3 ea = a.axis(t), eb = b.axis(t);
+  const Vec3 r = b.position(t) - a.position(t);
+  return pair_state_from(segment_closest_inline(r, ea, h, eb, h), r, ea, eb, a, b, h, D);
+}
+
+// The checks rod_contact makes before it steps: a state it can step from.
+bool finite_state(const PairState &st) {
+  return std::isfinite(st.gap) && std::isfinite(st.rate) && std::isfinite(st.fixed.g0) &&
+         std::isfinite(st.fixed.closing);
 }
 
 // A step the bounds prove contact-free from the pair state, gap + margin > 0 on it: the fixed
@@ -311,8 +325,7 @@ ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, do
     }
     PairState st = pair_state(a, b, h, D, t);
     ++out.iterations;
-    if (!std::isfinite(st.gap) || !std::isfinite(st.rate) || !std::isfinite(st.fixed.g0) ||
-        !std::isfinite(st.fixed.closing)) {
+    if (!finite_state(st)) {
       out.converged = false;
       out.t = t;
       return out;
@@ -370,6 +383,19 @@ Vec3 Flight::axis(double t) const {
     vers_over_w2 = 2.0 * half_sin * half_sin / w2;  // 1 - cos a without cancellation
   }
   return cos_a * e + sin_over_w * cross(w, e) + (vers_over_w2 * dot(w, e)) * w;
+}
+
+bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
+                     double h, double D, double t_to, double margin) {
+  if (h <= 0.0) {  // the least distance of r + u s on [0, t_to]; NaN: not apart
+    const Vec3 u = b.v - a.v;
+    const double uu = norm2(u);
+    const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
+    return norm(r + s * u) - D > margin;
+  }
+  const PairState st = pair_state_from(c, r, a.e, b.e, a, b, h, D);
+  if (!finite_state(st) || !(st.gap > margin)) return false;
+  return contact_free_step(st, a, b, h, -margin, t_to).clear;
 }
 
 ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,

@@ -73,4 +73,15 @@ struct ContactTime {
 ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
                           double t_to, const ContactTimeSettings &settings);
 
+// The exact method's screen of its candidates (contact_detection.hpp, StepAhead): true when
+// the free flights of a and b alone (both from t0 = 0) keep their surfaces more than `margin`
+// apart over [0, t_to], proven by the bound of the search's first step, from the closest
+// points `c` of axes a.e, b.e at separation r = x_b - x_a (b's nearest image) that the caller
+// has measured already. Then first_contact(a, b, h, D, 0, t_to) finds nothing however its own
+// r is rounded, when margin is far above that rounding and above the tolerance
+// (kApartMargin). False when not proven, and for non-finite input.
+inline constexpr double kApartMargin = 1e-9;
+bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
+                     double h, double D, double t_to, double margin);
+
 }  // namespace hardrod

@@ -50,6 +50,11 @@ struct Context {
   const std::vector<std::uint32_t> &group_of;  // by body: its cluster, kNone if none
   double dt;
   const ExactSettings &settings;
+  // Contact::apart holds: the detection's margin is above the search's tolerance.
+  bool screened = settings.contact.tolerance < kApartMargin;
+
+  // A candidate that needs its first search.
+  bool live(const Contact &c) const { return !(screened && c.apart); }
 };
 
 // One cluster's event-driven pass from the step's start to its end. One per thread, reused
@@ -79,7 +84,8 @@ class ClusterPass {
                     0.0};
     }
     for (std::size_t k = 0; k < ncandidates; ++k)
-      predict(slot(candidates[k]->i), slot(candidates[k]->j), 0.0, false);
+      if (cx_.live(*candidates[k]))
+        predict(slot(candidates[k]->i), slot(candidates[k]->j), 0.0, false);
     const long long cap = cx_.settings.events_per_body * static_cast<long long>(count);
     bool fell_back = false;
     while (!queue_.empty()) {
@@ -283,13 +289,13 @@ struct Partition {
 
   std::size_t count() const { return alive.size(); }
 
-  // The clusters of the joined candidates, in one pass over the bodies (a root is its set's
-  // smallest index, so it comes before its set's other bodies) and one over the candidates.
-  void first(std::vector<std::uint32_t> &parent, const std::vector<Contact> &candidates,
-             std::vector<std::uint32_t> &group_of) {
+  // The clusters of the joined candidates, in one pass over their bodies `involved`
+  // (ascending: a root is its set's smallest index, so it comes before its set's other
+  // bodies) and one over the candidates.
+  void first(std::vector<std::uint32_t> &parent, const std::vector<std::uint32_t> &involved,
+             const std::vector<Contact> &candidates, std::vector<std::uint32_t> &group_of) {
     std::vector<std::size_t> size;
-    for (std::uint32_t b = 0; b < parent.size(); ++b) {
-      if (parent[b] == kNone) continue;
+    for (const std::uint32_t b : involved) {
       const std::uint32_t r = set_root(parent, b);
       if (r == b) {
         group_of[b] = static_cast<std::uint32_t>(size.size());
@@ -304,8 +310,7 @@ struct Partition {
     for (std::size_t g = 0; g < groups; ++g) body_start[g + 1] = body_start[g] + size[g];
     bodies.resize(body_start[groups]);
     std::vector<std::size_t> at(body_start.begin(), body_start.end() - 1);
-    for (std::uint32_t b = 0; b < parent.size(); ++b)
-      if (parent[b] != kNone) bodies[at[group_of[b]]++] = b;
+    for (const std::uint32_t b : involved) bodies[at[group_of[b]]++] = b;
     cand_start.assign(groups + 1, 0);
     for (const Contact &c : candidates) ++cand_start[group_of[c.i] + 1];
     for (std::size_t g = 0; g < groups; ++g) cand_start[g + 1] += cand_start[g];
@@ -354,6 +359,13 @@ void prefetch_bodies(const Particles &p, const Partition &pt, std::size_t g) {
   }
 }
 
+// True when cluster g has a candidate to search: else nothing happens in it in the step.
+bool eventful(const Context &cx, const Partition &pt, std::size_t g) {
+  for (std::size_t k = pt.cand_start[g]; k < pt.cand_start[g + 1]; ++k)
+    if (cx.live(*pt.cands[k])) return true;
+  return false;
+}
+
 // Solves clusters [from, partition.count()), threads taking whole clusters.
 void solve(const Context &cx, Partition &pt, std::size_t from) {
   const auto n = static_cast<long>(pt.count() - from);
@@ -363,8 +375,10 @@ void solve(const Context &cx, Partition &pt, std::size_t from) {
 #pragma omp for schedule(dynamic, 4)
     for (long k = 0; k < n; ++k) {
       const std::size_t g = from + static_cast<std::size_t>(k);
-      if (k + 2 < n) prefetch_bodies(cx.p, pt, g + 2);
       pt.flown[g].clear();
+      pt.stats[g] = {};
+      if (!eventful(cx, pt, g)) continue;
+      if (k + 2 < n) prefetch_bodies(cx.p, pt, g + 2);
       pt.stats[g] =
           pass.run(static_cast<std::uint32_t>(g), pt.bodies.data() + pt.body_start[g],
                    pt.body_start[g + 1] - pt.body_start[g], pt.cands.data() + pt.cand_start[g],
@@ -470,14 +484,19 @@ void first_partition(const NeighborList &list, const std::vector<Contact> &candi
   scratch.parent.resize(n, kNone);
   scratch.label.resize(n, kNone);
   scratch.overrun.resize(n, 0.0);
+  std::vector<std::uint32_t> &involved = scratch.involved;
+  involved.clear();
   const auto take = [&](std::uint32_t b) {
-    if (scratch.parent[b] == kNone) scratch.parent[b] = b;
+    if (scratch.parent[b] != kNone) return;
+    scratch.parent[b] = b;
+    involved.push_back(b);
   };
   for (const Contact &c : candidates) take(c.i), take(c.j);
   for (const auto &[a, b] : joins) take(a), take(b);
+  std::sort(involved.begin(), involved.end());
   for (const Contact &c : candidates) join_sets(scratch.parent, c.i, c.j);
   for (const auto &[a, b] : joins) join_sets(scratch.parent, a, b);
-  pt.first(scratch.parent, candidates, scratch.label);
+  pt.first(scratch.parent, involved, candidates, scratch.label);
 }
 
 // The final partition's physics into `stats` (the counts of work are the passes' own, including
@@ -499,6 +518,11 @@ void finish(const Partition &pt, ExactStats &stats, ExactScratch &scratch,
   for (const std::uint32_t b : pt.bodies) scratch.parent[b] = scratch.label[b] = kNone;
 }
 
+long long count_apart(const std::vector<Contact> &candidates) {
+  return std::count_if(candidates.begin(), candidates.end(),
+                       [](const Contact &c) { return c.apart; });
+}
+
 }  // namespace
 
 ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
@@ -508,6 +532,7 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
   ExactStats stats;
   flown.clear();
   stats.candidates = static_cast<long long>(candidates.size());
+  stats.apart = count_apart(candidates);
   if (candidates.empty()) return stats;
   Partition pt;
   first_partition(list, candidates, {}, scratch, pt);
@@ -539,6 +564,7 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
   ExactStats stats;
   flown.clear();
   stats.candidates = static_cast<long long>(candidates.size());
+  stats.apart = count_apart(candidates);
   if (candidates.empty() && joins.empty()) return stats;
   Partition pt;
   first_partition(list, candidates, joins, scratch, pt);
@@ -569,6 +595,7 @@ std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const 
 
 ExactStats &ExactStats::operator+=(const ExactStats &o) {
   candidates += o.candidates;
+  apart += o.apart;
   clusters += o.clusters;
   largest_cluster = std::max(largest_cluster, o.largest_cluster);
   collisions += o.collisions;

@@ -11,7 +11,10 @@
 // Clusters: the candidates joined by shared bodies. Within a cluster an event-driven pass runs
 // from t = 0 to dt: each candidate gets its first contact time (first_contact,
 // contact_time.hpp); the earliest event is taken (ties by ids), the two bodies get the impulse
-// and every listed pair of either body inside the cluster is predicted again from then. A body
+// and every listed pair of either body inside the cluster is predicted again from then. A
+// candidate the detection marked `apart` (its free flights keep it apart all step) is not
+// searched until one of its bodies changes velocity, and a cluster of such candidates only is
+// not visited: nothing in it can happen (the same trajectory as searching them). A body
 // whose new velocity carries it further than its free flight would have (its "overrun") may
 // reach a body outside its cluster: each such listed pair is checked against its slack with
 // the bodies' real bounds, and where it could touch the two clusters are joined and solved
@@ -54,6 +57,7 @@ struct ExactSettings {
 // work (events, searches, iterations, grazes) of every pass, including those a join discarded.
 struct ExactStats {
   long long candidates = 0;       // listed pairs that could touch in the step
+  long long apart = 0;            // of those, kept apart by their free flights (Contact::apart)
   long long clusters = 0;         // clusters of candidates
   long long largest_cluster = 0;  // bodies in the largest
   long long collisions = 0;       // impulses given
@@ -88,9 +92,10 @@ using BodyPair = std::pair<std::uint32_t, std::uint32_t>;
 
 // Scratch kept between steps (per-body arrays over the list's bodies).
 struct ExactScratch {
-  std::vector<std::uint32_t> parent;  // union-find over bodies; UINT32_MAX: not involved
-  std::vector<std::uint32_t> label;   // the cluster (its index) of an involved body
-  std::vector<double> overrun;        // of a flown body, else 0
+  std::vector<std::uint32_t> parent;    // union-find over bodies; UINT32_MAX: not involved
+  std::vector<std::uint32_t> label;     // the cluster (its index) of an involved body
+  std::vector<double> overrun;          // of a flown body, else 0
+  std::vector<std::uint32_t> involved;  // the bodies of a step's candidates and joins
 };
 
 ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,

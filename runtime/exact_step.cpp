@@ -102,8 +102,8 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
     DetectionStats detected;
     {
       ScopedRegion r(timers_, Region::kDetect);
-      detected = detect_contacts(particles_, scene_.box, scene_.shape, list_, contacts_,
-                                 particles_.grow.data());
+      const StepAhead ahead{particles_.grow.data(), scene_.dt};
+      detected = detect_contacts(particles_, scene_.box, scene_.shape, list_, contacts_, &ahead);
       note_detection(detected);
     }
     double reach = 0.0;

@@ -184,8 +184,8 @@ nlohmann::json exact_json(Simulation &sim) {
   ExactRecord r = mine;
   ExactStats &t = r.totals;
   for (long long *v :
-       {&t.candidates, &t.clusters, &t.collisions, &t.events, &t.searches, &t.repredictions,
-        &t.root_iterations, &t.unconverged, &t.regrown, &t.fallbacks, &t.grazes})
+       {&t.candidates, &t.apart, &t.clusters, &t.collisions, &t.events, &t.searches,
+        &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown, &t.fallbacks, &t.grazes})
     *v = comm.sum("summary", *v);
   t.largest_cluster = static_cast<long long>(
       comm.max("summary", {static_cast<double>(mine.totals.largest_cluster)})[0]);
@@ -199,6 +199,7 @@ nlohmann::json exact_json(Simulation &sim) {
           {"root_iterations", t.root_iterations},
           {"unconverged_searches", t.unconverged},
           {"candidates", t.candidates},
+          {"apart", t.apart},
           {"clusters", t.clusters},
           {"largest_cluster", t.largest_cluster},
           {"regrown", t.regrown},

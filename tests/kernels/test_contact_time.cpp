@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -566,6 +567,65 @@ TEST(FirstContact, ExtremesStayFinite) {
   EXPECT_FALSE(ct.found);
   EXPECT_FALSE(ct.converged);
   EXPECT_EQ(ct.t, 0.0);
+}
+
+// The exact method's screen (apart_in_flight): a pair it proves apart is one whose search from
+// 0 finds nothing and whose sampled gap never closes to the margin; it passes most of the
+// pairs the search clears in one evaluation (what it is for), and never a colliding one.
+void apart_suite(const char *name, double h, double sigma_w, std::uint64_t seed, int pairs) {
+  std::mt19937_64 rng(seed);
+  const double dts[] = {1e-3, 3e-3, 1e-2};
+  long apart = 0, one_step = 0, one_step_apart = 0, found = 0;
+  for (int i = 0; i < pairs; ++i) {
+    Flight a, b;
+    random_pair(rng, h, sigma_w, 1e-9, 0.05, 0.0, a, b);
+    const double dt = dts[i % 3];
+    const Vec3 r = b.x - a.x;
+    const bool screened =
+        apart_in_flight(a, b, r, segment_closest(r, a.e, h, b.e, h), h, kD, dt, kApartMargin);
+    const ContactTime ct = first_contact(a, b, h, kD, 0.0, dt, {});
+    found += ct.found;
+    apart += screened;
+    const bool cleared = !ct.found && ct.converged && ct.iterations == 1;
+    one_step += cleared;
+    one_step_apart += cleared && screened;
+    if (!screened) continue;
+    EXPECT_FALSE(ct.found) << name << " pair " << i << "\n a: " << describe(a)
+                           << "\n b: " << describe(b);
+    EXPECT_TRUE(ct.converged);
+    double least = std::numeric_limits<double>::infinity();
+    for (int k = 0; k <= 400; ++k) least = std::min(least, gap_at(a, b, h, dt * k / 400));
+    EXPECT_GT(least, kApartMargin) << name << " pair " << i;
+  }
+  std::printf(
+      "[ apart    ] %s: %ld of %d pairs proven apart; %ld of the %ld the search clears "
+      "in one evaluation; %ld contacts\n",
+      name, apart, pairs, one_step_apart, one_step, found);
+  EXPECT_GT(found, pairs / 40);
+  EXPECT_GT(apart, pairs / 4);
+  EXPECT_GE(one_step_apart, one_step * 9 / 10);
+}
+
+TEST(ApartInFlight, ProvenApartPairsNeverMeetRods) { apart_suite("L/D 5", 2.5, 0.7, 7, 3000); }
+TEST(ApartInFlight, ProvenApartPairsNeverMeetNeedles) {
+  apart_suite("L/D 1000", 500.0, 0.003, 8, 1000);
+}
+TEST(ApartInFlight, ProvenApartPairsNeverMeetSpheres) { apart_suite("spheres", 0.0, 0.0, 9, 3000); }
+
+// Non-finite input is never proven apart (the search then reports it).
+TEST(ApartInFlight, NonFiniteIsNotApart) {
+  for (double h : {0.0, 2.5}) {
+    Flight a, b;
+    a.e = b.e = {0, 0, 1};
+    b.x = {3, 0, 0};
+    b.v = {NAN, 0, 0};
+    const Vec3 r = b.x - a.x;
+    EXPECT_FALSE(
+        apart_in_flight(a, b, r, segment_closest(r, a.e, h, b.e, h), h, kD, 1e-3, kApartMargin));
+    b.v = {};
+    EXPECT_TRUE(
+        apart_in_flight(a, b, r, segment_closest(r, a.e, h, b.e, h), h, kD, 1e-3, kApartMargin));
+  }
 }
 
 }  // namespace

@@ -33,7 +33,8 @@ Step exact_step(Particles &p, const Box &box, const Shape &shape, double dt,
   refresh_motion(p, p.size(), shape, 0.5 * dt);
   grow_bounds(p, p.size());
   std::vector<Contact> candidates;
-  detect_contacts(p, box, shape, list, candidates, p.grow.data());
+  const StepAhead ahead{p.grow.data(), dt};
+  detect_contacts(p, box, shape, list, candidates, &ahead);
   ExactScratch scratch;
   Step s;
   s.stats = collide_exactly(p, box, shape, list, candidates, dt, settings, scratch, s.flown);
@@ -203,7 +204,8 @@ TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
     refresh_motion(p, p.size(), sphere, 0.5 * c.dt);
     grow_bounds(p, p.size());
     std::vector<Contact> candidates;
-    detect_contacts(p, c.box, sphere, list, candidates, p.grow.data());
+    const StepAhead ahead{p.grow.data(), c.dt};
+    detect_contacts(p, c.box, sphere, list, candidates, &ahead);
     ExactScratch scratch;
     std::vector<FlownBody> kernel, rounds;
     const ExactStats whole =
