@@ -61,21 +61,30 @@ bool exact_candidate(const Particles &p, const Box &box, const Vec3 &inverse, co
   const std::uint32_t i = p.id[a] < p.id[b] ? a : b;
   const std::uint32_t j = p.id[a] < p.id[b] ? b : a;
   const double h = shape.half_length();
-  const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
-  const Vec3 ei = p.axis(i), ej = p.axis(j);
+  const Vec3 xi = p.position(i);
+  const Vec3 rij = box.minimum_image(p.position(j) - xi, inverse);
+  // Spheres: the centres' distance, segment_closest's bits (make_contact); no axes, no spins.
+  Vec3 ei, ej;
   SegmentClosest sc;
-  if (h == 0.0)  // spheres: the centres' distance, segment_closest's bits (make_contact)
+  if (h == 0.0) {
     distance = std::sqrt(norm2(rij));
-  else
-    distance = std::sqrt((sc = segment_closest_inline(rij, ei, h, ej, h)).dist2);
+  } else {
+    ei = p.axis(i);
+    ej = p.axis(j);
+    sc = segment_closest_inline(rij, ei, h, ej, h);
+    distance = std::sqrt(sc.dist2);
+  }
   if (!(distance < shape.diameter + reach)) return false;
   c.i = i;
   c.j = j;
   c.id_i = p.id[i];
   c.id_j = p.id[j];
   c.depth = shape.diameter - distance;
-  const Flight fi{p.position(i), ei, p.velocity(i), p.angular_velocity(i), 0.0};
-  const Flight fj{p.position(i) + rij, ej, p.velocity(j), p.angular_velocity(j), 0.0};
+  Flight fi{xi, ei, p.velocity(i), {}, 0.0}, fj{xi + rij, ej, p.velocity(j), {}, 0.0};
+  if (h > 0.0) {
+    fi.w = p.angular_velocity(i);
+    fj.w = p.angular_velocity(j);
+  }
   c.apart = apart_in_flight(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin);
   return true;
 }

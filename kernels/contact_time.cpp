@@ -393,6 +393,18 @@ bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const Segm
     const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
     return norm(r + s * u) - D > margin;
   }
+  // First the fixed bound along the closest points' own direction, unrefined: it proves most
+  // candidates apart at half the cost of the search's state (any unit n gives a lower bound).
+  if (c.dist2 > 0.25 * D * D) {
+    const Vec3 n = (1.0 / std::sqrt(c.dist2)) * c.gap;
+    GapBound quick;
+    quick.a = axis_bound(n, a.e, a.w);
+    quick.b = axis_bound(n, b.e, b.w);
+    quick.h = h;
+    quick.closing = dot(n, a.v - b.v);
+    quick.g0 = -dot(n, r) - h * (std::abs(quick.a.A) + std::abs(quick.b.A)) - D - margin;
+    if (quick.g0 > 0.0 && quick.value(t_to) > 0.0 && std::isfinite(quick.slope(t_to))) return true;
+  }
   const PairState st = pair_state_from(c, r, a.e, b.e, a, b, h, D);
   if (!finite_state(st) || !(st.gap > margin)) return false;
   return contact_free_step(st, a, b, h, -margin, t_to).clear;

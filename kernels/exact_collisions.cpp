@@ -4,6 +4,7 @@
 #include "kernels/exact_collisions.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -484,16 +485,21 @@ void first_partition(const NeighborList &list, const std::vector<Contact> &candi
   scratch.parent.resize(n, kNone);
   scratch.label.resize(n, kNone);
   scratch.overrun.resize(n, 0.0);
-  std::vector<std::uint32_t> &involved = scratch.involved;
-  involved.clear();
+  // The bodies taken, ascending: a bit each, read back word by word.
+  std::vector<std::uint64_t> &bits = scratch.involved_bits;
+  bits.assign((n + 63) / 64, 0);
   const auto take = [&](std::uint32_t b) {
     if (scratch.parent[b] != kNone) return;
     scratch.parent[b] = b;
-    involved.push_back(b);
+    bits[b / 64] |= std::uint64_t{1} << (b % 64);
   };
   for (const Contact &c : candidates) take(c.i), take(c.j);
   for (const auto &[a, b] : joins) take(a), take(b);
-  std::sort(involved.begin(), involved.end());
+  std::vector<std::uint32_t> &involved = scratch.involved;
+  involved.clear();
+  for (std::size_t w = 0; w < bits.size(); ++w)
+    for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
+      involved.push_back(static_cast<std::uint32_t>(64 * w + std::countr_zero(word)));
   for (const Contact &c : candidates) join_sets(scratch.parent, c.i, c.j);
   for (const auto &[a, b] : joins) join_sets(scratch.parent, a, b);
   pt.first(scratch.parent, involved, candidates, scratch.label);

@@ -96,6 +96,7 @@ struct ExactScratch {
   std::vector<std::uint32_t> label;     // the cluster (its index) of an involved body
   std::vector<double> overrun;          // of a flown body, else 0
   std::vector<std::uint32_t> involved;  // the bodies of a step's candidates and joins
+  std::vector<std::uint64_t> involved_bits;
 };
 
 ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
