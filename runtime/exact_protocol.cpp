@@ -47,8 +47,10 @@ void ExactPieces::tidy() {
   for (const std::uint32_t k : order)
     if (sorted.empty() || sorted.back().id != bodies[k].id) sorted.push_back(bodies[k]);
   bodies.swap(sorted);
-  std::sort(edges.begin(), edges.end(),
-            [](const Edge &x, const Edge &y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
+  // Of an edge sent twice, the first kept: a candidate not proven apart before one proven so.
+  std::sort(edges.begin(), edges.end(), [](const Edge &x, const Edge &y) {
+    return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.candidate < y.candidate);
+  });
   edges.erase(std::unique(edges.begin(), edges.end(),
                           [](const Edge &x, const Edge &y) { return x.a == y.a && x.b == y.b; }),
               edges.end());
@@ -178,6 +180,7 @@ void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vec
     if (e.candidate) {
       Contact c;
       c.i = a, c.j = b, c.id_i = e.a, c.id_j = e.b;
+      c.apart = e.candidate == 2;
       problem.candidates.push_back(c);
     } else {
       problem.joins.emplace_back(a, b);

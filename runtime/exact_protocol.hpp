@@ -39,7 +39,7 @@ struct ExactPieces {
   };
   struct Edge {
     std::int64_t a = 0, b = 0;   // a < b
-    std::int32_t candidate = 0;  // 1: a candidate; 0: a join
+    std::int32_t candidate = 0;  // 1: a candidate; 2: one proven apart (Contact::apart); 0: a join
   };
   std::vector<Body> bodies;                                   // by id after tidy()
   std::vector<Edge> edges;                                    // by (a, b) after tidy()

@@ -336,16 +336,16 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
   // Each body's edges here, as ids (a < b): its candidates and joins.
   std::vector<std::uint32_t> degree(advanced(), 0);
   std::vector<std::vector<ExactPieces::Edge>> edges(cc.count());
-  const auto add_edge = [&](std::uint32_t a, std::uint32_t b, bool candidate) {
+  const auto add_edge = [&](std::uint32_t a, std::uint32_t b, std::int32_t kind) {
     ++degree[a], ++degree[b];
     const std::uint32_t c = cc.comp_of[a];
     if (!cc.spanning[c] || !changed[c]) return;
     std::int64_t ia = particles_.id[a], ib = particles_.id[b];
     if (ia > ib) std::swap(ia, ib);
-    edges[c].push_back({ia, ib, candidate ? 1 : 0});
+    edges[c].push_back({ia, ib, kind});
   };
-  for (const Contact &ct : contacts_) add_edge(ct.i, ct.j, true);
-  for (const auto &[a, b] : round.joins) add_edge(a, b, false);
+  for (const Contact &ct : contacts_) add_edge(ct.i, ct.j, ct.apart ? 2 : 1);
+  for (const auto &[a, b] : round.joins) add_edge(a, b, 0);
   std::vector<ExactPieces::Body> bodies;
   for (std::size_t c = 0; c < cc.count(); ++c) {
     if (!cc.spanning[c] || !changed[c]) continue;
