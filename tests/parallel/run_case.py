@@ -88,7 +88,7 @@ def main():
         if "exact" in summary:
             # The exact method's clusters are the same on any ranks x threads, and each
             # candidate, cluster and join is counted once.
-            for key in ("candidates", "clusters", "regrown", "largest_cluster"):
+            for key in ("candidates", "apart", "clusters", "regrown", "largest_cluster"):
                 if summary["exact"][key] != ref["exact"][key]:
                     print(f"FAILED: exact.{key} = {summary['exact'][key]}, the 1 x 1 run has "
                           f"{ref['exact'][key]}")
