@@ -7,17 +7,35 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <utility>
 
 #include "kernels/contact_time.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
 
+namespace {
+
+// Bodies a and b in canonical orientation by global id (id[i] < id[j]): the same arithmetic
+// on every rank.
+std::pair<std::uint32_t, std::uint32_t> canonical_pair(const Particles &p, std::uint32_t a,
+                                                       std::uint32_t b) {
+  return p.id[a] < p.id[b] ? std::pair{a, b} : std::pair{b, a};
+}
+
+// A contact's bodies and ids, i first (canonical_pair).
+void name_bodies(const Particles &p, std::uint32_t i, std::uint32_t j, Contact &c) {
+  c.i = i;
+  c.j = j;
+  c.id_i = p.id[i];
+  c.id_j = p.id[j];
+}
+
+}  // namespace
+
 bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
                   std::uint32_t a, std::uint32_t b, Contact &c, double &distance, double reach) {
-  // Canonical orientation by global id: the same arithmetic on every rank.
-  const std::uint32_t i = p.id[a] < p.id[b] ? a : b;
-  const std::uint32_t j = p.id[a] < p.id[b] ? b : a;
+  const auto [i, j] = canonical_pair(p, a, b);
   const double h = shape.half_length();
   const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
   // Spheres: the centres' distance, the same bits as segment_closest's (its gap is -rij
@@ -30,10 +48,7 @@ bool make_contact(const Particles &p, const Box &box, const Vec3 &inverse, const
   const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
   distance = std::sqrt(sc.dist2);
   if (!(distance < shape.diameter + reach)) return false;
-  c.i = i;
-  c.j = j;
-  c.id_i = p.id[i];
-  c.id_j = p.id[j];
+  name_bodies(p, i, j, c);
   contact_geometry(sc, rij, ei, ej, shape, c);
   c.separation = -rij;
   c.depth = shape.diameter - distance;
@@ -58,8 +73,7 @@ void lower_to(double &target, double value) {
 bool exact_candidate(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
                      std::uint32_t a, std::uint32_t b, double reach, double dt, Contact &c,
                      double &distance) {
-  const std::uint32_t i = p.id[a] < p.id[b] ? a : b;
-  const std::uint32_t j = p.id[a] < p.id[b] ? b : a;
+  const auto [i, j] = canonical_pair(p, a, b);
   const double h = shape.half_length();
   const Vec3 xi = p.position(i);
   const Vec3 rij = box.minimum_image(p.position(j) - xi, inverse);
@@ -75,10 +89,7 @@ bool exact_candidate(const Particles &p, const Box &box, const Vec3 &inverse, co
     distance = std::sqrt(sc.dist2);
   }
   if (!(distance < shape.diameter + reach)) return false;
-  c.i = i;
-  c.j = j;
-  c.id_i = p.id[i];
-  c.id_j = p.id[j];
+  name_bodies(p, i, j, c);
   c.depth = shape.diameter - distance;
   Flight fi{xi, ei, p.velocity(i), {}, 0.0}, fj{xi + rij, ej, p.velocity(j), {}, 0.0};
   if (h > 0.0) {
