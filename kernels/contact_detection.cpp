@@ -151,24 +151,62 @@ inline double smallest_allowance(const NeighborList &list, std::uint32_t i) {
   return w;
 }
 
-// The threads' contacts in canonical order. Sorted as 24-byte keys and gathered once: a
-// Contact is 152 bytes, and the exact method's candidates run to thousands per step.
+// A contact's place among the threads' blocks, and its ids (the sort key).
+struct ContactKey {
+  std::uint32_t id_i, id_j, list, at;
+};
+
+// Keys in ascending order(key) < largest: a stable radix sort, 11 bits a pass; `other` is
+// scratch.
+template <class Order>
+void radix_sort(std::vector<ContactKey> &keys, std::vector<ContactKey> &other, Order &&order,
+                std::uint64_t largest) {
+  constexpr int kBits = 11;
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << kBits) - 1;
+  other.resize(keys.size());
+  std::uint32_t count[kMask + 1];
+  for (int shift = 0; (largest >> shift) != 0; shift += kBits) {
+    std::fill(std::begin(count), std::end(count), 0);
+    for (const ContactKey &k : keys) ++count[(order(k) >> shift) & kMask];
+    std::uint32_t sum = 0;
+    for (std::uint32_t &c : count) sum += std::exchange(c, sum);
+    for (const ContactKey &k : keys) other[count[(order(k) >> shift) & kMask]++] = k;
+    keys.swap(other);
+  }
+}
+
+// The threads' contacts in canonical order, gathered once: a Contact is 152 bytes, and the
+// exact method's candidates run to thousands per step. The order (id_i, id_j) is that of one
+// integer, id_i (max_id + 1) + id_j: sorted by radix from kRadixContacts contacts, by
+// comparison below; ids outside [0, 2^31) take the comparison of the pairs.
+constexpr std::size_t kRadixContacts = 512;
 void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact> &contacts) {
-  struct Key {
-    std::int64_t id_i, id_j;
-    std::uint32_t list, at;
-  };
-  thread_local std::vector<Key> keys;
+  constexpr std::int64_t kLargestId = std::int64_t{1} << 31;
+  thread_local std::vector<ContactKey> keys, other;
   keys.clear();
+  std::uint64_t span = 1;
+  bool fits = true;
   for (std::uint32_t t = 0; t < found.size(); ++t)
-    for (std::uint32_t k = 0; k < found[t].size(); ++k)
-      keys.push_back({found[t][k].id_i, found[t][k].id_j, t, k});
-  std::sort(keys.begin(), keys.end(), [](const Key &a, const Key &b) {
-    return a.id_i != b.id_i ? a.id_i < b.id_i : a.id_j < b.id_j;
-  });
+    for (std::uint32_t k = 0; k < found[t].size(); ++k) {
+      const Contact &c = found[t][k];
+      fits = fits && c.id_i >= 0 && c.id_j >= 0 && c.id_i < kLargestId && c.id_j < kLargestId;
+      span = std::max(span, static_cast<std::uint64_t>(c.id_j) + 1);
+      keys.push_back(
+          {static_cast<std::uint32_t>(c.id_i), static_cast<std::uint32_t>(c.id_j), t, k});
+    }
+  const auto order = [span](const ContactKey &k) { return k.id_i * span + k.id_j; };
+  if (fits && keys.size() >= kRadixContacts)
+    radix_sort(keys, other, order, span * span);
+  else if (fits)
+    std::sort(keys.begin(), keys.end(),
+              [&](const ContactKey &a, const ContactKey &b) { return order(a) < order(b); });
+  else
+    std::sort(keys.begin(), keys.end(), [&](const ContactKey &a, const ContactKey &b) {
+      return canonical_less(found[a.list][a.at], found[b.list][b.at]);
+    });
   contacts.clear();
   contacts.reserve(keys.size());
-  for (const Key &key : keys) contacts.push_back(found[key.list][key.at]);
+  for (const ContactKey &key : keys) contacts.push_back(found[key.list][key.at]);
 }
 
 }  // namespace

@@ -194,8 +194,7 @@ class ClusterPass {
   void each_partner_in_cluster(std::uint32_t body, F &&f) const {
     const NeighborList &list = cx_.list;
     for (std::uint32_t q = list.pairs_start[body]; q < list.pairs_start[body + 1]; ++q) {
-      const ListedPair &pair = list.pairs[list.pair_index[q]];
-      const std::uint32_t other = pair.first == body ? pair.second : pair.first;
+      const std::uint32_t other = list.pair_partner[q];
       if (cx_.group_of[other] == group_) f(other);
     }
   }
@@ -401,9 +400,9 @@ void reaches_from(const Particles &p, const Box &box, const Vec3 &inverse, const
                   const NeighborList &list, const std::vector<double> &overrun, const FlownBody &f,
                   Same &&same, std::vector<BodyPair> &out) {
   for (std::uint32_t q = list.pairs_start[f.body]; q < list.pairs_start[f.body + 1]; ++q) {
-    const ListedPair &pair = list.pairs[list.pair_index[q]];
-    const std::uint32_t other = pair.first == f.body ? pair.second : pair.first;
+    const std::uint32_t other = list.pair_partner[q];
     if (same(other)) continue;
+    const ListedPair &pair = list.pairs[list.pair_index[q]];
     const double moved = p.motion_bound[pair.first] + overrun[pair.first] +
                          p.motion_bound[pair.second] + overrun[pair.second];
     if (moved < pair.recheck_at) continue;

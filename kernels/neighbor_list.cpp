@@ -396,11 +396,10 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   ++list.builds;
 }
 
-void arm_watches(NeighborList &list) {
+// A counting sort of the pair ends by body.
+void index_pairs(NeighborList &list) {
   const std::size_t npairs = list.pair_count();
   const std::size_t n = list.active;
-  for (ListedPair &pair : list.pairs) pair.allowance_first = 0.5 * pair.recheck_at;
-  // Counting sort of the pair ends by body: each body's pairs in list order.
   list.pairs_start.assign(n + 1, 0);
   for (std::size_t k = 0; k < npairs; ++k) {
     ++list.pairs_start[list.pairs[k].first + 1];
@@ -408,11 +407,21 @@ void arm_watches(NeighborList &list) {
   }
   for (std::size_t i = 0; i < n; ++i) list.pairs_start[i + 1] += list.pairs_start[i];
   list.pair_index.resize(2 * npairs);
+  list.pair_partner.resize(2 * npairs);
   std::vector<std::uint32_t> next(list.pairs_start.begin(), list.pairs_start.end() - 1);
   for (std::size_t k = 0; k < npairs; ++k) {
-    list.pair_index[next[list.pairs[k].first]++] = static_cast<std::uint32_t>(k);
-    list.pair_index[next[list.pairs[k].second]++] = static_cast<std::uint32_t>(k);
+    const std::uint32_t a = list.pairs[k].first, b = list.pairs[k].second;
+    const std::uint32_t at_a = next[a]++, at_b = next[b]++;
+    list.pair_index[at_a] = list.pair_index[at_b] = static_cast<std::uint32_t>(k);
+    list.pair_partner[at_a] = b;
+    list.pair_partner[at_b] = a;
   }
+}
+
+void arm_watches(NeighborList &list) {
+  const std::size_t n = list.active;
+  for (ListedPair &pair : list.pairs) pair.allowance_first = 0.5 * pair.recheck_at;
+  index_pairs(list);
   list.watch.resize(n);
   list.flagged.assign(n + 8, 0);  // room for the last word's read
   list.watching = true;

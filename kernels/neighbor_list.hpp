@@ -58,8 +58,10 @@ struct ListedPair {
 struct NeighborList {
   double skin = 0.3;
   std::vector<ListedPair> pairs;
-  // The pairs of body i, by index: pair_index[pairs_start[i] .. pairs_start[i + 1]).
-  std::vector<std::uint32_t> pairs_start, pair_index;
+  // The pairs of body i, by index: pair_index[pairs_start[i] .. pairs_start[i + 1]); and
+  // beside each, the pair's other body (pair_partner[a]), so that a walk over a body's
+  // partners reads one run of memory instead of a scattered pair record each.
+  std::vector<std::uint32_t> pairs_start, pair_index, pair_partner;
   // Body i's pairs need a look once motion_bound[i] >= watch[i], the smallest allowance of
   // body i over its pairs (+infinity without pairs). [0, active).
   std::vector<double> watch;
@@ -79,6 +81,10 @@ struct NeighborList {
 
   std::size_t pair_count() const { return pairs.size(); }
 };
+
+// Index the pairs by body over bodies [0, list.active): pairs_start, pair_index and
+// pair_partner, each body's pairs in list order (arm_watches calls it).
+void index_pairs(NeighborList &list);
 
 // Split every pair's slack evenly between its two bodies (at zero bounds, as after a
 // build), index the pairs by body and set the watches. build_neighbor_list calls it; a test

@@ -137,16 +137,7 @@ void list_near_pairs(const ExactClusters &ec, const Box &box, double near, Exact
     first = last;
   }
   list.active = list.bodies = n;
-  list.pairs_start.assign(n + 1, 0);
-  for (const ListedPair &pair : list.pairs)
-    ++list.pairs_start[pair.first + 1], ++list.pairs_start[pair.second + 1];
-  for (std::size_t k = 0; k < n; ++k) list.pairs_start[k + 1] += list.pairs_start[k];
-  list.pair_index.resize(2 * list.pairs.size());
-  std::vector<std::uint32_t> at(list.pairs_start.begin(), list.pairs_start.end() - 1);
-  for (std::uint32_t q = 0; q < list.pairs.size(); ++q) {
-    list.pair_index[at[list.pairs[q].first]++] = q;
-    list.pair_index[at[list.pairs[q].second]++] = q;
-  }
+  index_pairs(list);
 }
 
 }  // namespace

@@ -130,6 +130,39 @@ INSTANTIATE_TEST_SUITE_P(Shapes, DetectionMatchesBruteForce,
                                   std::to_string(c.threads);
                          });
 
+// The contacts come in canonical order by whichever sort the detection takes: the radix sort
+// of the packed ids (thousands of contacts), the comparison of packed ids (a few), and the
+// comparison of the pairs (ids past 2^31), on one and two threads.
+TEST(Detection, ContactsInCanonicalOrderAtAnyCount) {
+  Shape shape;
+  shape.length = 0.0;
+  Box box;
+  box.length = {12.0, 13.0, 14.0};
+  for (const std::size_t n : {std::size_t{300}, std::size_t{2000}})
+    for (const std::int64_t offset : {std::int64_t{0}, std::int64_t{3} << 31})
+      for (const int threads : {1, 2}) {
+        SCOPED_TRACE(std::to_string(n) + " bodies, ids from " + std::to_string(offset) + ", " +
+                     std::to_string(threads) + " threads");
+        omp_set_num_threads(threads);
+        Particles p = random_gas(n, box, 7, false);
+        for (std::size_t i = 0; i < n; ++i) p.id[i] += offset;
+        NeighborList list;
+        build_neighbor_list(list, p, n, box, shape);
+        std::vector<Contact> contacts;
+        detect_contacts_all_pairs(p, box, shape, list, contacts);
+        EXPECT_EQ(as_set(contacts), brute_force(p, box, shape));
+        for (std::size_t k = 1; k < contacts.size(); ++k)
+          ASSERT_TRUE(canonical_less(contacts[k - 1], contacts[k])) << "contact " << k;
+        if (n == 2000) {
+          EXPECT_GT(contacts.size(), 1000u) << "the radix sort must be exercised";
+        } else {
+          EXPECT_GT(contacts.size(), 5u);
+          EXPECT_LT(contacts.size(), 512u);
+        }
+      }
+  omp_set_num_threads(1);
+}
+
 // The watches hold what they promise: after any step, every listed pair's two bounds are
 // below its slack unless one of its bodies has reached its watch, and each watch is at
 // most the body's allowance in each of its pairs, which sum to less than the slack. And

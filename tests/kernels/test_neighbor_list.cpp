@@ -78,6 +78,7 @@ std::map<IdPair, double> listed(const NeighborList &list, const Particles &p) {
 void expect_watches(const NeighborList &list) {
   ASSERT_EQ(list.pairs_start.size(), list.active + 1);
   ASSERT_EQ(list.pair_index.size(), 2 * list.pair_count());
+  ASSERT_EQ(list.pair_partner.size(), 2 * list.pair_count());
   ASSERT_EQ(list.watch.size(), list.active);
   EXPECT_TRUE(list.watching);
   std::vector<int> ends(list.pair_count(), 0);
@@ -86,6 +87,8 @@ void expect_watches(const NeighborList &list) {
     for (std::uint32_t a = list.pairs_start[i]; a < list.pairs_start[i + 1]; ++a) {
       const ListedPair &pair = list.pairs[list.pair_index[a]];
       EXPECT_TRUE(pair.first == i || pair.second == i) << "body " << i << " indexes a pair";
+      EXPECT_EQ(list.pair_partner[a], pair.first == i ? pair.second : pair.first)
+          << "body " << i << " names its partner";
       ++ends[list.pair_index[a]];
       smallest = std::min(smallest, pair.allowance(i));
     }

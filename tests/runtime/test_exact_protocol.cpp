@@ -90,6 +90,7 @@ TEST(ExactProtocol, TheScratchProblemHoldsTheClustersBodiesEdgesAndNearPairs) {
     for (std::uint32_t q = problem.list.pairs_start[b]; q < problem.list.pairs_start[b + 1]; ++q) {
       const ListedPair &p = problem.list.pairs[problem.list.pair_index[q]];
       EXPECT_TRUE(p.first == b || p.second == b);
+      EXPECT_EQ(problem.list.pair_partner[q], p.first == b ? p.second : p.first);
     }
   // Centres 0.1 sqrt(3) apart per unit of id: within 0.25 only 1-2 and 2-3.
   exact_problem(r, ec, {1}, box, 0.25, problem);
