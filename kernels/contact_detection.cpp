@@ -165,7 +165,7 @@ void radix_sort(std::vector<ContactKey> &keys, std::vector<ContactKey> &other, O
   constexpr std::uint64_t kMask = (std::uint64_t{1} << kBits) - 1;
   other.resize(keys.size());
   std::uint32_t count[kMask + 1];
-  for (int shift = 0; (largest >> shift) != 0; shift += kBits) {
+  for (int shift = 0; shift < 64 && (largest >> shift) != 0; shift += kBits) {
     std::fill(std::begin(count), std::end(count), 0);
     for (const ContactKey &k : keys) ++count[(order(k) >> shift) & kMask];
     std::uint32_t sum = 0;
