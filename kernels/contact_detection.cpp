@@ -100,25 +100,79 @@ bool exact_candidate(const Particles &p, const Box &box, const Vec3 &inverse, co
   return true;
 }
 
-// The narrow phase of listed pair k (bodies at motion bounds summing to `moved`): a contact
-// if they overlap, and the pair's slack renewed from the distance measured. With `ahead`
-// (the exact method, see contact_detection.hpp) the bounds already hold the step's whole
-// flight while the bodies are still at its start: the pair is reported when its gap is below
-// the two flights, and the slack is renewed for the start.
-void measure(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-             NeighborList &list, std::size_t k, double moved, const StepAhead *ahead,
-             std::vector<Contact> &found, double &max_depth) {
-  Contact c;
-  double d = 0.0;
-  ListedPair &pair = list.pairs[k];
+// The distances of the due pairs pairs[due[0, n)] as make_contact and exact_candidate measure
+// them (canonical orientation, minimum image, segment_closest_inline's arithmetic), in one
+// loop without branches: it runs in vector lanes, with the same operations and so the same
+// bits (no contraction: -ffp-contract=off). Most due pairs are not within reach; only those
+// that are go through the scalar test again (settle).
+template <bool Rods>
+void due_distances(const Particles &p, const Box &box, const Vec3 &inverse, double h,
+                   const ListedPair *__restrict pairs, const std::uint32_t *__restrict due,
+                   std::size_t n, double *__restrict distance) {
+  const std::int64_t *__restrict id = p.id.data();
+  const double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
+  const double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(),
+                           *__restrict ez = p.ez.data();
+  const Box image = box;
+#pragma omp simd
+  for (std::size_t q = 0; q < n; ++q) {
+    const std::uint32_t a = pairs[due[q]].first, b = pairs[due[q]].second;
+    const bool swap = id[b] < id[a];  // canonical_pair
+    const std::uint32_t i = swap ? b : a, j = swap ? a : b;
+    const Vec3 rij = image.minimum_image({x[j] - x[i], y[j] - y[i], z[j] - z[i]}, inverse);
+    if constexpr (Rods) {
+      const SegmentClosest sc =
+          segment_closest_inline(rij, {ex[i], ey[i], ez[i]}, h, {ex[j], ey[j], ez[j]}, h);
+      distance[q] = std::sqrt(sc.dist2);
+    } else {
+      distance[q] = std::sqrt(norm2(rij));
+    }
+  }
+}
+
+// The narrow phase of listed pair k at distance d (bodies at motion bounds summing to
+// `moved`): a contact if they overlap, and the pair's slack renewed from d. With `ahead` (the
+// exact method, see contact_detection.hpp) the bounds already hold the step's whole flight
+// while the bodies are still at its start: the pair is reported when its gap is below the
+// two flights, and the slack is renewed for the start.
+void settle(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+            ListedPair &pair, double moved, double d, const StepAhead *ahead,
+            std::vector<Contact> &found, double &max_depth) {
   const double reach = ahead ? 2.0 * (ahead->grow[pair.first] + ahead->grow[pair.second]) : 0.0;
-  if (ahead
-          ? exact_candidate(p, box, inverse, shape, pair.first, pair.second, reach, ahead->dt, c, d)
-          : make_contact(p, box, inverse, shape, pair.first, pair.second, c, d)) {
-    max_depth = std::max(max_depth, c.depth);
-    found.push_back(c);
+  if (d < shape.diameter + reach) {  // the full test, which measures d again (a NaN is not)
+    Contact c;
+    double again = 0.0;
+    if (ahead ? exact_candidate(p, box, inverse, shape, pair.first, pair.second, reach, ahead->dt,
+                                c, again)
+              : make_contact(p, box, inverse, shape, pair.first, pair.second, c, again)) {
+      max_depth = std::max(max_depth, c.depth);
+      found.push_back(c);
+    }
   }
   pair.recheck_at = (moved - reach) + (d - shape.diameter) - kDistanceSafetyMargin;
+}
+
+// The due pairs pairs[due[0, n)] measured: their distances a batch at a time (due_distances),
+// then each settled.
+constexpr std::size_t kDueBatch = 256;
+void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+                 NeighborList &list, const std::uint32_t *due, std::size_t n,
+                 const StepAhead *ahead, std::vector<Contact> &found, double &max_depth) {
+  const double *bound = p.motion_bound.data();
+  const double h = shape.half_length();
+  double distance[kDueBatch];
+  for (std::size_t from = 0; from < n; from += kDueBatch) {
+    const std::size_t m = std::min(kDueBatch, n - from);
+    if (h == 0.0)
+      due_distances<false>(p, box, inverse, h, list.pairs.data(), due + from, m, distance);
+    else
+      due_distances<true>(p, box, inverse, h, list.pairs.data(), due + from, m, distance);
+    for (std::size_t q = 0; q < m; ++q) {
+      ListedPair &pair = list.pairs[due[from + q]];
+      settle(p, box, inverse, shape, pair, bound[pair.first] + bound[pair.second], distance[q],
+             ahead, found, max_depth);
+    }
+  }
 }
 
 // Pass 1 of the watched detection over bodies [lo, hi): flag the bodies whose motion bound
@@ -213,6 +267,7 @@ void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact>
 
 WatchedDetection::WatchedDetection(int threads)
     : found(static_cast<std::size_t>(threads)),
+      due(static_cast<std::size_t>(threads)),
       ends(static_cast<std::size_t>(threads)),
       tests(static_cast<std::size_t>(threads)),
       depth(static_cast<std::size_t>(threads)) {}
@@ -249,17 +304,24 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
   // The pairs' records are scattered through the list: ask for all of them first.
   for (const std::uint32_t i : raised)
     for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) __builtin_prefetch(&pairs[index[a]], 1);
-  for (const std::uint32_t i : raised) {
+  // The pairs whose slack is used up, measured; then every visited pair's slack split.
+  std::vector<std::uint32_t> &due = shared.due[tid];
+  due.clear();
+  for (const std::uint32_t i : raised)
     for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
-      const std::uint32_t k = index[a];
-      ListedPair &pair = pairs[k];
+      const ListedPair &pair = pairs[index[a]];
       const std::uint32_t f = pair.first, s = pair.second;
       if (s == i && flagged[f]) continue;  // visited from its first body
+      if (bound[f] + bound[s] >= pair.recheck_at) due.push_back(index[a]);
+    }
+  tests = static_cast<long long>(due.size());
+  measure_due(p, box, inverse, shape, list, due.data(), due.size(), ahead, mine, max_depth);
+  for (const std::uint32_t i : raised) {
+    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
+      ListedPair &pair = pairs[index[a]];
+      const std::uint32_t f = pair.first, s = pair.second;
+      if (s == i && flagged[f]) continue;
       const double moved = bound[f] + bound[s];
-      if (moved >= pair.recheck_at) {  // the slack is used up: measure
-        ++tests;
-        measure(p, box, inverse, shape, list, k, moved, ahead, mine, max_depth);
-      }
       // The rest of the slack in proportion to the bounds so far: bounds grow about
       // linearly, so both bodies then reach their allowances about when the pair's
       // slack is used up (evenly while both bounds are 0).
@@ -336,13 +398,21 @@ DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, con
     if (static_cast<long>(list.active) > kParallelBodies)
   {
     auto &mine = found[omp_get_thread_num()];
-#pragma omp for schedule(static)
-    for (std::size_t k = 0; k < npairs; ++k) {
-      const ListedPair &pair = list.pairs[k];
-      const double moved = bound[pair.first] + bound[pair.second];
-      if (moved < pair.recheck_at) continue;  // cannot have closed its gap yet
-      ++tests;
-      measure(p, box, inverse, shape, list, k, moved, ahead, mine, max_depth);
+    const auto [lo, hi] =
+        team_block(static_cast<long>(npairs), omp_get_thread_num(), omp_get_num_threads());
+    // The pairs whose bounds used up the slack (the others cannot have closed their gap
+    // yet), listed without a branch and measured a batch at a time.
+    std::uint32_t due[kDueBatch];
+    std::size_t n = 0;
+    const ListedPair *pairs = list.pairs.data();
+    for (long k = lo; k < hi; ++k) {
+      due[n] = static_cast<std::uint32_t>(k);
+      n += bound[pairs[k].first] + bound[pairs[k].second] >= pairs[k].recheck_at;
+      if (n == kDueBatch || (k + 1 == hi && n > 0)) {
+        measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
+        tests += static_cast<long long>(n);
+        n = 0;
+      }
     }
   }
   merge_sorted(found, contacts);

@@ -48,6 +48,7 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 struct WatchedDetection {
   explicit WatchedDetection(int threads);
   std::vector<std::vector<Contact>> found;
+  std::vector<std::vector<std::uint32_t>> due;  // each thread's pairs to measure
   std::vector<long> ends;
   std::vector<long long> tests;
   std::vector<double> depth;
