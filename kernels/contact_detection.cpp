@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "kernels/contact_time.hpp"
+#include "kernels/gap_bound.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
@@ -67,48 +68,33 @@ void lower_to(double &target, double value) {
   }
 }
 
-// The exact method's test of bodies a and b (StepAhead, contact_detection.hpp): a candidate
-// when closer than D + reach, filled with what the clusters read (ids, depth, `apart`), the
-// distance as make_contact measures it.
-bool exact_candidate(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-                     std::uint32_t a, std::uint32_t b, double reach, double dt, Contact &c,
-                     double &distance) {
-  const auto [i, j] = canonical_pair(p, a, b);
-  const double h = shape.half_length();
-  const Vec3 xi = p.position(i);
-  const Vec3 rij = box.minimum_image(p.position(j) - xi, inverse);
-  // Spheres: the centres' distance, segment_closest's bits (make_contact); no axes, no spins.
-  Vec3 ei, ej;
-  SegmentClosest sc;
-  if (h == 0.0) {
-    distance = std::sqrt(norm2(rij));
-  } else {
-    ei = p.axis(i);
-    ej = p.axis(j);
-    sc = segment_closest_inline(rij, ei, h, ej, h);
-    distance = std::sqrt(sc.dist2);
-  }
-  if (!(distance < shape.diameter + reach)) return false;
-  name_bodies(p, i, j, c);
-  c.depth = shape.diameter - distance;
-  Flight fi{xi, ei, p.velocity(i), {}, 0.0}, fj{xi + rij, ej, p.velocity(j), {}, 0.0};
-  if (h > 0.0) {
-    fi.w = p.angular_velocity(i);
-    fj.w = p.angular_velocity(j);
-  }
-  c.apart = apart_in_flight(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin);
-  return true;
-}
+// A batch of due pairs measured (due_distances): bodies i and j in canonical orientation
+// (canonical_pair), j's centre from i's (minimum image), and their closest points (rods).
+constexpr std::size_t kDueBatch = 256;
+struct DueBatch {
+  std::uint32_t i[kDueBatch], j[kDueBatch];
+  double rx[kDueBatch], ry[kDueBatch], rz[kDueBatch];
+  double s[kDueBatch], t[kDueBatch], gx[kDueBatch], gy[kDueBatch], gz[kDueBatch];
+  double dist2[kDueBatch], distance[kDueBatch];
+  // The candidates among them (within reach), and which of those the quick screen proved
+  // apart (screen_candidates).
+  std::uint32_t candidate[kDueBatch];
+  std::uint8_t quick_apart[kDueBatch];
 
-// The distances of the due pairs pairs[due[0, n)] as make_contact and exact_candidate measure
-// them (canonical orientation, minimum image, segment_closest_inline's arithmetic), in one
-// loop without branches: it runs in vector lanes, with the same operations and so the same
-// bits (no contraction: -ffp-contract=off). Most due pairs are not within reach; only those
-// that are go through the scalar test again (settle).
+  Vec3 r(std::size_t q) const { return {rx[q], ry[q], rz[q]}; }
+  SegmentClosest closest(std::size_t q) const {
+    return {s[q], t[q], {gx[q], gy[q], gz[q]}, dist2[q]};
+  }
+};
+
+// The due pairs pairs[due[0, n)] measured as make_contact measures them (canonical
+// orientation, minimum image, segment_closest_inline's arithmetic; spheres: the centres'
+// distance), in one loop without branches: it runs in vector lanes, with the same operations
+// and so the same bits (no contraction: -ffp-contract=off).
 template <bool Rods>
 void due_distances(const Particles &p, const Box &box, const Vec3 &inverse, double h,
                    const ListedPair *__restrict pairs, const std::uint32_t *__restrict due,
-                   std::size_t n, double *__restrict distance) {
+                   std::size_t n, DueBatch &__restrict out) {
   const std::int64_t *__restrict id = p.id.data();
   const double *__restrict x = p.x.data(), *__restrict y = p.y.data(), *__restrict z = p.z.data();
   const double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(),
@@ -120,57 +106,111 @@ void due_distances(const Particles &p, const Box &box, const Vec3 &inverse, doub
     const bool swap = id[b] < id[a];  // canonical_pair
     const std::uint32_t i = swap ? b : a, j = swap ? a : b;
     const Vec3 rij = image.minimum_image({x[j] - x[i], y[j] - y[i], z[j] - z[i]}, inverse);
+    out.i[q] = i;
+    out.j[q] = j;
+    out.rx[q] = rij.x;
+    out.ry[q] = rij.y;
+    out.rz[q] = rij.z;
     if constexpr (Rods) {
       const SegmentClosest sc =
           segment_closest_inline(rij, {ex[i], ey[i], ez[i]}, h, {ex[j], ey[j], ez[j]}, h);
-      distance[q] = std::sqrt(sc.dist2);
+      out.s[q] = sc.s;
+      out.t[q] = sc.t;
+      out.gx[q] = sc.gap.x;
+      out.gy[q] = sc.gap.y;
+      out.gz[q] = sc.gap.z;
+      out.dist2[q] = sc.dist2;
+      out.distance[q] = std::sqrt(sc.dist2);
     } else {
-      distance[q] = std::sqrt(norm2(rij));
+      out.distance[q] = std::sqrt(norm2(rij));
     }
   }
 }
 
-// The narrow phase of listed pair k at distance d (bodies at motion bounds summing to
-// `moved`): a contact if they overlap, and the pair's slack renewed from d. With `ahead` (the
-// exact method, see contact_detection.hpp) the bounds already hold the step's whole flight
-// while the bodies are still at its start: the pair is reported when its gap is below the
-// two flights, and the slack is renewed for the start.
-void settle(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-            ListedPair &pair, double moved, double d, const StepAhead *ahead,
-            std::vector<Contact> &found, double &max_depth) {
-  const double reach = ahead ? 2.0 * (ahead->grow[pair.first] + ahead->grow[pair.second]) : 0.0;
-  if (d < shape.diameter + reach) {  // the full test, which measures d again (a NaN is not)
-    Contact c;
-    double again = 0.0;
-    if (ahead ? exact_candidate(p, box, inverse, shape, pair.first, pair.second, reach, ahead->dt,
-                                c, again)
-              : make_contact(p, box, inverse, shape, pair.first, pair.second, c, again)) {
-      max_depth = std::max(max_depth, c.depth);
-      found.push_back(c);
-    }
+// The first screen of apart_in_flight (apart_along_gap, gap_bound.hpp) for the batch's rod
+// candidates [0, count), in vector lanes: most candidates are proven apart here.
+void screen_candidates(const Particles &p, double h, double D, double dt, std::size_t count,
+                       DueBatch &__restrict batch) {
+  const double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(),
+                           *__restrict ez = p.ez.data();
+  const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
+                           *__restrict vz = p.vz.data();
+  const double *__restrict wx = p.wx.data(), *__restrict wy = p.wy.data(),
+                           *__restrict wz = p.wz.data();
+#pragma omp simd
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
+    batch.quick_apart[k] =
+        apart_along_gap({ex[i], ey[i], ez[i]}, {vx[i], vy[i], vz[i]}, {wx[i], wy[i], wz[i]},
+                        {ex[j], ey[j], ez[j]}, {vx[j], vy[j], vz[j]}, {wx[j], wy[j], wz[j]},
+                        batch.r(q), batch.closest(q), h, D, dt, kApartMargin);
   }
-  pair.recheck_at = (moved - reach) + (d - shape.diameter) - kDistanceSafetyMargin;
 }
 
-// The due pairs pairs[due[0, n)] measured: their distances a batch at a time (due_distances),
-// then each settled.
-constexpr std::size_t kDueBatch = 256;
+// The exact method's candidate k of a batch (StepAhead, contact_detection.hpp), filled with
+// what the clusters read (ids, depth, `apart`). Spheres have no axes, spins or closest points.
+void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &batch, std::size_t k,
+                     double dt, Contact &c) {
+  const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
+  const double h = shape.half_length();
+  name_bodies(p, i, j, c);
+  c.depth = shape.diameter - batch.distance[q];
+  if (h > 0.0 && batch.quick_apart[k]) {
+    c.apart = true;
+    return;
+  }
+  const Vec3 xi = p.position(i), rij = batch.r(q);
+  Flight fi{xi, {}, p.velocity(i), {}, 0.0}, fj{xi + rij, {}, p.velocity(j), {}, 0.0};
+  SegmentClosest sc;
+  if (h > 0.0) {
+    fi.e = p.axis(i);
+    fj.e = p.axis(j);
+    fi.w = p.angular_velocity(i);
+    fj.w = p.angular_velocity(j);
+    sc = batch.closest(q);
+  }
+  c.apart = apart_in_flight(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin);
+}
+
+// The due pairs pairs[due[0, n)] measured a batch at a time (due_distances), and each pair's
+// slack renewed from its distance (bodies at motion bounds summing to `moved`). Those within
+// reach become contacts. With `ahead` (the exact method, see contact_detection.hpp) the
+// bounds already hold the step's whole flight while the bodies are still at its start: a
+// candidate is a pair whose gap is below the two flights, screened (screen_candidates,
+// exact_candidate), and the slack is renewed for the start. Without, a contact is an overlap
+// (rare), measured again by make_contact.
 void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
                  NeighborList &list, const std::uint32_t *due, std::size_t n,
                  const StepAhead *ahead, std::vector<Contact> &found, double &max_depth) {
   const double *bound = p.motion_bound.data();
-  const double h = shape.half_length();
-  double distance[kDueBatch];
+  const double h = shape.half_length(), D = shape.diameter;
+  thread_local DueBatch batch;
   for (std::size_t from = 0; from < n; from += kDueBatch) {
     const std::size_t m = std::min(kDueBatch, n - from);
     if (h == 0.0)
-      due_distances<false>(p, box, inverse, h, list.pairs.data(), due + from, m, distance);
+      due_distances<false>(p, box, inverse, h, list.pairs.data(), due + from, m, batch);
     else
-      due_distances<true>(p, box, inverse, h, list.pairs.data(), due + from, m, distance);
+      due_distances<true>(p, box, inverse, h, list.pairs.data(), due + from, m, batch);
+    std::size_t candidates = 0;
     for (std::size_t q = 0; q < m; ++q) {
       ListedPair &pair = list.pairs[due[from + q]];
-      settle(p, box, inverse, shape, pair, bound[pair.first] + bound[pair.second], distance[q],
-             ahead, found, max_depth);
+      const double d = batch.distance[q], moved = bound[pair.first] + bound[pair.second];
+      const double reach = ahead ? 2.0 * (ahead->grow[pair.first] + ahead->grow[pair.second]) : 0.0;
+      pair.recheck_at = (moved - reach) + (d - D) - kDistanceSafetyMargin;
+      batch.candidate[candidates] = static_cast<std::uint32_t>(q);
+      candidates += d < D + reach;  // (a NaN is not)
+    }
+    if (ahead && h > 0.0) screen_candidates(p, h, D, ahead->dt, candidates, batch);
+    for (std::size_t k = 0; k < candidates; ++k) {
+      Contact &c = found.emplace_back();
+      if (ahead) {
+        exact_candidate(p, shape, batch, k, ahead->dt, c);
+      } else {
+        const std::uint32_t q = batch.candidate[k];
+        double again = 0.0;
+        make_contact(p, box, inverse, shape, batch.i[q], batch.j[q], c, again);
+      }
+      max_depth = std::max(max_depth, c.depth);
     }
   }
 }

@@ -20,6 +20,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kernels/gap_bound.hpp"
+
 namespace hardrod {
 namespace {
 
@@ -71,42 +73,6 @@ ContactTime sphere_contact(const Flight &a, const Flight &b, double D, double t_
   }
   return out;
 }
-
-// One rod's part of the bound L(s): h (|A + C s| - |A| + K2 s^2 + K3 s^3).
-struct AxisBound {
-  double A = 0.0, C = 0.0, K2 = 0.0, K3 = 0.0;
-  double loss(double s) const { return std::abs(A + C * s) - std::abs(A) + s * s * (K2 + K3 * s); }
-  // A supergradient of -loss: any slope of a tangent from above of the concave -loss.
-  double loss_slope(double s) const {
-    const double lin = A + C * s;
-    const double sign = lin > 0.0 ? 1.0 : (lin < 0.0 ? -1.0 : 0.0);
-    return sign * C + s * (2.0 * K2 + 3.0 * K3 * s);
-  }
-};
-
-AxisBound axis_bound(const Vec3 &n, const Vec3 &e, const Vec3 &w) {
-  const double w2 = norm2(w);
-  AxisBound b;
-  b.A = dot(n, e);
-  b.C = dot(n, cross(w, e));
-  b.K2 = 0.5 * std::abs(dot(n, w) * dot(w, e) - w2 * b.A);
-  b.K3 = std::abs(b.C) * w2 / 6.0;
-  return b;
-}
-
-// L(s) + margin, the lower bound of gap(t + s) + margin: g0 + closing s - s^2 (q2 + q3 s)
-// - h (loss_a + loss_b), concave in s >= 0 (q2, q3, K2, K3 >= 0).
-struct GapBound {
-  double g0 = 0.0, closing = 0.0, h = 0.0;  // g0 includes the margin
-  double q2 = 0.0, q3 = 0.0;                // the turning direction's remainder (zero if fixed)
-  AxisBound a, b;
-  double value(double s) const {
-    return g0 + s * closing - s * s * (q2 + q3 * s) - h * (a.loss(s) + b.loss(s));
-  }
-  double slope(double s) const {
-    return closing - s * (2.0 * q2 + 3.0 * q3 * s) - h * (a.loss_slope(s) + b.loss_slope(s));
-  }
-};
 
 // The same separation along a direction that turns, n(s) = n rotated by omega s: still a
 // lower bound of the gap at every s, and with omega chosen so that n(s) stays square to each
@@ -393,18 +359,7 @@ bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const Segm
     const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
     return norm(r + s * u) - D > margin;
   }
-  // First the fixed bound along the closest points' own direction, unrefined: it proves most
-  // candidates apart at half the cost of the search's state (any unit n gives a lower bound).
-  if (c.dist2 > 0.25 * D * D) {
-    const Vec3 n = (1.0 / std::sqrt(c.dist2)) * c.gap;
-    GapBound quick;
-    quick.a = axis_bound(n, a.e, a.w);
-    quick.b = axis_bound(n, b.e, b.w);
-    quick.h = h;
-    quick.closing = dot(n, a.v - b.v);
-    quick.g0 = -dot(n, r) - h * (std::abs(quick.a.A) + std::abs(quick.b.A)) - D - margin;
-    if (quick.g0 > 0.0 && quick.value(t_to) > 0.0 && std::isfinite(quick.slope(t_to))) return true;
-  }
+  if (apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin)) return true;
   const PairState st = pair_state_from(c, r, a.e, b.e, a, b, h, D);
   if (!finite_state(st) || !(st.gap > margin)) return false;
   return contact_free_step(st, a, b, h, -margin, t_to).clear;
