@@ -250,30 +250,33 @@ struct ContactKey {
   std::uint32_t id_i, id_j, list, at;
 };
 
-// Keys in ascending order(key) < largest: a stable radix sort, 11 bits a pass; `other` is
-// scratch.
+// Keys in ascending order(key) < largest: a stable radix sort, `other` its scratch. Digits of
+// 8 bits below kWideDigits keys (a pass costs its buckets plus two reads of the keys: few
+// keys, few buckets), of 11 from there.
+constexpr std::size_t kWideDigits = 4096;
 template <class Order>
 void radix_sort(std::vector<ContactKey> &keys, std::vector<ContactKey> &other, Order &&order,
                 std::uint64_t largest) {
-  constexpr int kBits = 11;
-  constexpr std::uint64_t kMask = (std::uint64_t{1} << kBits) - 1;
+  const int bits = keys.size() < kWideDigits ? 8 : 11;
+  const std::uint64_t mask = (std::uint64_t{1} << bits) - 1;
   other.resize(keys.size());
-  std::uint32_t count[kMask + 1];
-  for (int shift = 0; shift < 64 && (largest >> shift) != 0; shift += kBits) {
-    std::fill(std::begin(count), std::end(count), 0);
-    for (const ContactKey &k : keys) ++count[(order(k) >> shift) & kMask];
+  std::uint32_t count[std::size_t{1} << 11];
+  for (int shift = 0; shift < 64 && (largest >> shift) != 0; shift += bits) {
+    std::fill(count, count + mask + 1, 0);
+    for (const ContactKey &k : keys) ++count[(order(k) >> shift) & mask];
     std::uint32_t sum = 0;
-    for (std::uint32_t &c : count) sum += std::exchange(c, sum);
-    for (const ContactKey &k : keys) other[count[(order(k) >> shift) & kMask]++] = k;
+    for (std::uint64_t d = 0; d <= mask; ++d) sum += std::exchange(count[d], sum);
+    for (const ContactKey &k : keys) other[count[(order(k) >> shift) & mask]++] = k;
     keys.swap(other);
   }
 }
 
 // The threads' contacts in canonical order, gathered once: a Contact is 152 bytes, and the
 // exact method's candidates run to thousands per step. The order (id_i, id_j) is that of one
-// integer, id_i (max_id + 1) + id_j: sorted by radix from kRadixContacts contacts, by
+// integer, id_i (max_id + 1) + id_j: sorted by radix from kRadixContacts contacts (a few
+// hundred a step in the nematic: the comparison sort's mispredicted branches cost more), by
 // comparison below; ids outside [0, 2^31) take the comparison of the pairs.
-constexpr std::size_t kRadixContacts = 512;
+constexpr std::size_t kRadixContacts = 64;
 void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact> &contacts) {
   constexpr std::int64_t kLargestId = std::int64_t{1} << 31;
   thread_local std::vector<ContactKey> keys, other;
