@@ -136,7 +136,9 @@ struct CellScratch {
   // 1 for a candidate kept by the preselection (as wide as a double: the vector loop that
   // writes it then runs eight candidates at a time)
   std::vector<std::uint64_t> keep;
-  std::vector<std::uint32_t> near;  // candidates kept for the exact test
+  std::vector<std::uint32_t> near;    // candidates kept for the exact test
+  std::vector<double> distance;       // and their segment distances (list_pairs)
+  std::vector<std::uint64_t> within;  // 1 for those within reach
 };
 
 // The stencil along one axis from window coordinate `at`: for each offset, the window
@@ -305,39 +307,49 @@ std::uint32_t preselect_centres(const PairSearch &s, CellScratch &w, std::uint32
 }
 
 // The exact tests of body i against the kept candidates near[0, kept): each pair whose
-// segments are within the reach is listed with its slack.
+// segments are within the reach is listed with its slack. The tests run in vector lanes, one
+// loop without branches over the candidates (the same operations as one test at a time, so
+// the same bits), and the pairs within reach are listed after, in the candidates' order.
+template <bool Rods>
 void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near, std::uint32_t kept,
-                std::vector<ListedPair> &mine) {
-  // The search's constants in locals: the stores into `mine` could otherwise alias them
-  // and force a reload per candidate.
-  const Particles &p = s.p;
+                CellScratch &w, std::vector<ListedPair> &mine) {
+  // The search's constants in locals: the stores could otherwise alias them and force a
+  // reload per candidate.
   const Box box = s.box;
   const Vec3 inverse = s.inverse;
-  const bool rods = s.rods;
   const double h = s.h, reach = s.reach, diameter = s.diameter;
   const double centre_reach2 = s.centre_reach2, prefilter_reach2 = s.prefilter_reach2;
-  const Vec3 ei = p.axis(i);
+  const double *__restrict x = s.p.x.data(), *__restrict y = s.p.y.data(),
+                           *__restrict z = s.p.z.data();
+  const double *__restrict ex = s.p.ex.data(), *__restrict ey = s.p.ey.data(),
+                           *__restrict ez = s.p.ez.data();
+  const Vec3 xi = s.p.position(i), ei = s.p.axis(i);
+  if (w.distance.size() < kept) w.distance.resize(kept), w.within.resize(kept);
+  double *__restrict distance = w.distance.data();
+  std::uint64_t *__restrict within = w.within.data();
+#pragma omp simd
   for (std::uint32_t k = 0; k < kept; ++k) {
     const std::uint32_t j = near[k];
-    const Vec3 rij = box.minimum_image(p.position(j) - p.position(i), inverse);
-    if (!(norm2(rij) < centre_reach2)) continue;
-    const Vec3 ej = p.axis(j);
-    // Cheap lower bound first: with n the unit vector along r's part perpendicular
-    // to e_i, every point pair of the two segments is at least |r_perp| - h |e_j . n|
-    // apart. Side-by-side rods further than the reach are dropped here without the
-    // segment distance (most candidates in a nematic). Squared, without a root;
-    // the margin keeps rounding from dropping a pair inside the reach.
-    if (rods) {
+    const Vec3 rij = box.minimum_image({x[j] - xi.x, y[j] - xi.y, z[j] - xi.z}, inverse);
+    const Vec3 ej{ex[j], ey[j], ez[j]};
+    bool apart = !(norm2(rij) < centre_reach2);
+    if constexpr (Rods) {
+      // Cheap lower bound: with n the unit vector along r's part perpendicular to e_i, every
+      // point pair of the two segments is at least |r_perp| - h |e_j . n| apart (squared,
+      // without a root; the margin keeps rounding from dropping a pair inside the reach).
       const Vec3 rperp = rij - dot(rij, ei) * ei;
       const double rp2 = norm2(rperp);
       const double lower = rp2 - h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
-      if (lower > 0.0 && lower * lower > prefilter_reach2 * rp2) continue;
+      apart = apart | ((lower > 0.0) & (lower * lower > prefilter_reach2 * rp2));
     }
-    const SegmentClosest sc = segment_closest(rij, ei, h, ej, h);
+    const SegmentClosest sc = segment_closest_inline(rij, ei, h, ej, h);
     const double d = std::sqrt(sc.dist2);
-    if (d >= reach) continue;
-    mine.push_back({i, j, d - diameter - kDistanceSafetyMargin, 0.0});
+    distance[k] = d;
+    within[k] = !apart & (d < reach);
   }
+  for (std::uint32_t k = 0; k < kept; ++k)
+    if (within[k])
+      mine.push_back({i, near[k], distance[k] - diameter - kDistanceSafetyMargin, 0.0});
 }
 
 // The pairs of cell c's bodies with the later candidates, appended to `mine`.
@@ -354,7 +366,10 @@ void search_cell(const PairSearch &s, int c, CellScratch &w, std::vector<ListedP
     } else {
       for (std::uint32_t q = a + 1; q < ncand; ++q) w.near[kept++] = w.cand[q];
     }
-    list_pairs(s, w.cand[a], w.near.data(), kept, mine);
+    if (s.rods)
+      list_pairs<true>(s, w.cand[a], w.near.data(), kept, w, mine);
+    else
+      list_pairs<false>(s, w.cand[a], w.near.data(), kept, w, mine);
   }
 }
 
