@@ -345,6 +345,13 @@ struct Partition {
   }
 };
 
+// The clusters' storage, kept from step to step (first() resets it): a step then allocates
+// nothing for its clusters, nor for their flown bodies.
+Partition &step_partition() {
+  thread_local Partition pt;
+  return pt;
+}
+
 // Below this many clusters a step solves them on one thread: a parallel region costs more
 // than a few small clusters.
 constexpr long kParallelClusters = 32;
@@ -539,7 +546,7 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
   stats.candidates = static_cast<long long>(candidates.size());
   stats.apart = count_apart(candidates);
   if (candidates.empty()) return stats;
-  Partition pt;
+  Partition &pt = step_partition();
   first_partition(list, candidates, {}, scratch, pt);
   const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
   for (std::size_t from = 0;;) {
@@ -571,7 +578,7 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
   stats.candidates = static_cast<long long>(candidates.size());
   stats.apart = count_apart(candidates);
   if (candidates.empty() && joins.empty()) return stats;
-  Partition pt;
+  Partition &pt = step_partition();
   first_partition(list, candidates, joins, scratch, pt);
   const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
   solve(cx, pt, 0);
