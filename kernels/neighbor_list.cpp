@@ -323,17 +323,22 @@ void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near,
                            *__restrict z = s.p.z.data();
   const double *__restrict ex = s.p.ex.data(), *__restrict ey = s.p.ey.data(),
                            *__restrict ez = s.p.ez.data();
-  const Vec3 xi = s.p.position(i), ei = s.p.axis(i);
+  // Body i's centre and axis as scalars: a Vec3 kept in memory would be loaded whole in the
+  // loop, which then does not vectorise.
+  const double xix = s.p.x[i], xiy = s.p.y[i], xiz = s.p.z[i];
+  const double eix = s.p.ex[i], eiy = s.p.ey[i], eiz = s.p.ez[i];
   if (w.distance.size() < kept) w.distance.resize(kept), w.within.resize(kept);
   double *__restrict distance = w.distance.data();
   std::uint64_t *__restrict within = w.within.data();
-#pragma omp simd
+#pragma GCC ivdep  // (omp simd would keep rij in memory per lane, and not vectorise)
   for (std::uint32_t k = 0; k < kept; ++k) {
     const std::uint32_t j = near[k];
-    const Vec3 rij = box.minimum_image({x[j] - xi.x, y[j] - xi.y, z[j] - xi.z}, inverse);
-    const Vec3 ej{ex[j], ey[j], ez[j]};
+    const Vec3 rij = box.minimum_image({x[j] - xix, y[j] - xiy, z[j] - xiz}, inverse);
+    const Vec3 ei{eix, eiy, eiz};
     bool apart = !(norm2(rij) < centre_reach2);
+    double d = 0.0;
     if constexpr (Rods) {
+      const Vec3 ej{ex[j], ey[j], ez[j]};
       // Cheap lower bound: with n the unit vector along r's part perpendicular to e_i, every
       // point pair of the two segments is at least |r_perp| - h |e_j . n| apart (squared,
       // without a root; the margin keeps rounding from dropping a pair inside the reach).
@@ -341,9 +346,10 @@ void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near,
       const double rp2 = norm2(rperp);
       const double lower = rp2 - h * std::fabs(dot(ej, rperp));  // bound x |r_perp|
       apart = apart | ((lower > 0.0) & (lower * lower > prefilter_reach2 * rp2));
+      d = std::sqrt(segment_closest_inline(rij, ei, h, ej, h).dist2);
+    } else {  // the centres' distance, segment_closest's bits (its gap is -rij when h = 0)
+      d = std::sqrt(norm2(rij));
     }
-    const SegmentClosest sc = segment_closest_inline(rij, ei, h, ej, h);
-    const double d = std::sqrt(sc.dist2);
     distance[k] = d;
     within[k] = !apart & (d < reach);
   }
