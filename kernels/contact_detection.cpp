@@ -315,26 +315,71 @@ WatchedDetection::WatchedDetection(int threads)
       tests(static_cast<std::size_t>(threads)),
       depth(static_cast<std::size_t>(threads)) {}
 
+namespace {
+
+// The pairs of the flagged bodies `raised` whose slack is used up, into `due`; a pair of two
+// flagged bodies is visited from its first body only.
+void list_due_of(const NeighborList &list, const double *bound, const std::uint8_t *flagged,
+                 const std::vector<std::uint32_t> &raised, std::vector<std::uint32_t> &due) {
+  const ListedPair *pairs = list.pairs.data();
+  const std::uint32_t *start = list.pairs_start.data(), *index = list.pair_index.data();
+  // The pairs' records are scattered through the list: ask for all of them first.
+  for (const std::uint32_t i : raised)
+    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) __builtin_prefetch(&pairs[index[a]], 1);
+  due.clear();
+  for (const std::uint32_t i : raised)
+    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
+      const ListedPair &pair = pairs[index[a]];
+      const std::uint32_t f = pair.first, s = pair.second;
+      if (s == i && flagged[f]) continue;  // visited from its first body
+      if (bound[f] + bound[s] >= pair.recheck_at) due.push_back(index[a]);
+    }
+}
+
+// Every visited pair's slack split between its bodies, the rest in proportion to the bounds
+// so far: bounds grow about linearly, so both bodies then reach their allowances about when
+// the pair's slack is used up (evenly while both bounds are 0). An unflagged partner whose
+// allowance shrank lowers its watch (an atomic minimum when `shared_watches`).
+void split_slacks(NeighborList &list, const double *bound, const std::uint8_t *flagged,
+                  const std::vector<std::uint32_t> &raised, bool shared_watches) {
+  ListedPair *pairs = list.pairs.data();
+  const std::uint32_t *start = list.pairs_start.data(), *index = list.pair_index.data();
+  double *watch = list.watch.data();
+  for (const std::uint32_t i : raised)
+    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
+      ListedPair &pair = pairs[index[a]];
+      const std::uint32_t f = pair.first, s = pair.second;
+      if (s == i && flagged[f]) continue;
+      const double moved = bound[f] + bound[s];
+      const double rest = pair.recheck_at - moved;
+      pair.allowance_first =
+          bound[f] + (moved > 0.0 && rest > 0.0 ? rest * (bound[f] / moved) : 0.5 * rest);
+      const std::uint32_t other = f == i ? s : f;
+      if (flagged[other]) continue;
+      if (shared_watches)
+        lower_to(watch[other], pair.allowance(other));
+      else  // the same minimum without the atomic's fence
+        watch[other] = std::min(watch[other], pair.allowance(other));
+    }
+}
+
+}  // namespace
+
 void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
                             NeighborList &list, WatchedDetection &shared, const StepAhead *ahead) {
   const long n = static_cast<long>(list.active);
-  ListedPair *pairs = list.pairs.data();
-  const std::uint32_t *start = list.pairs_start.data();
-  const std::uint32_t *index = list.pair_index.data();
   const double *bound = p.motion_bound.data();
-  double *watch = list.watch.data();
   std::uint8_t *flagged = list.flagged.data();  // n + 8 long (arm_watches)
-  const Vec3 inverse = box.inverse_length();
   const int tid = omp_get_thread_num();
   const int team = omp_get_num_threads();
   const auto [lo, hi] = team_block(n, tid, team);
   std::vector<Contact> &mine = shared.found[tid];
   mine.clear();
   std::vector<std::uint32_t> raised;  // this block's flagged bodies
-  long long tests = 0;
   double max_depth = 0.0;
 
-  const long my_ends = flag_block(lo, hi, bound, watch, flagged, start, raised);
+  const long my_ends =
+      flag_block(lo, hi, bound, list.watch.data(), flagged, list.pairs_start.data(), raised);
   shared.ends[tid] = my_ends;  // once: the threads' entries share a cache line
 #pragma omp barrier
   // Every thread takes the same decision from the same sum (no further barrier).
@@ -344,45 +389,15 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
     raised.clear();
     if (tid == 0) shared.watching = false;
   }
-  // The pairs' records are scattered through the list: ask for all of them first.
-  for (const std::uint32_t i : raised)
-    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) __builtin_prefetch(&pairs[index[a]], 1);
   // The pairs whose slack is used up, measured; then every visited pair's slack split.
   std::vector<std::uint32_t> &due = shared.due[tid];
-  due.clear();
-  for (const std::uint32_t i : raised)
-    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
-      const ListedPair &pair = pairs[index[a]];
-      const std::uint32_t f = pair.first, s = pair.second;
-      if (s == i && flagged[f]) continue;  // visited from its first body
-      if (bound[f] + bound[s] >= pair.recheck_at) due.push_back(index[a]);
-    }
-  tests = static_cast<long long>(due.size());
-  measure_due(p, box, inverse, shape, list, due.data(), due.size(), ahead, mine, max_depth);
-  for (const std::uint32_t i : raised) {
-    for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
-      ListedPair &pair = pairs[index[a]];
-      const std::uint32_t f = pair.first, s = pair.second;
-      if (s == i && flagged[f]) continue;
-      const double moved = bound[f] + bound[s];
-      // The rest of the slack in proportion to the bounds so far: bounds grow about
-      // linearly, so both bodies then reach their allowances about when the pair's
-      // slack is used up (evenly while both bounds are 0).
-      const double rest = pair.recheck_at - moved;
-      pair.allowance_first =
-          bound[f] + (moved > 0.0 && rest > 0.0 ? rest * (bound[f] / moved) : 0.5 * rest);
-      const std::uint32_t other = f == i ? s : f;
-      if (!flagged[other]) {
-        if (team > 1)
-          lower_to(watch[other], pair.allowance(other));
-        else  // the same minimum without the atomic's fence
-          watch[other] = std::min(watch[other], pair.allowance(other));
-      }
-    }
-  }
+  list_due_of(list, bound, flagged, raised, due);
+  measure_due(p, box, box.inverse_length(), shape, list, due.data(), due.size(), ahead, mine,
+              max_depth);
+  split_slacks(list, bound, flagged, raised, team > 1);
 #pragma omp barrier
-  for (const std::uint32_t i : raised) watch[i] = smallest_allowance(list, i);
-  shared.tests[tid] = tests;
+  for (const std::uint32_t i : raised) list.watch[i] = smallest_allowance(list, i);
+  shared.tests[tid] = static_cast<long long>(due.size());
   shared.depth[tid] = max_depth;
 }
 
