@@ -447,9 +447,8 @@ DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, con
                                          const StepAhead *ahead) {
   const int nthreads = omp_get_max_threads();
   // The threads' contacts, their storage kept from step to step (thousands of 152-byte
-  // contacts a step would otherwise be grown from nothing every step).
-  // (A reference, shared by the team: inside the parallel region a thread_local name would
-  // be each thread's own.)
+  // contacts a step would otherwise be grown from nothing), reached by the team through a
+  // reference: inside the parallel region a thread_local name is each thread's own.
   thread_local std::vector<std::vector<Contact>> storage;
   std::vector<std::vector<Contact>> &found = storage;
   found.resize(static_cast<std::size_t>(nthreads));
