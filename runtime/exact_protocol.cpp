@@ -30,22 +30,54 @@ void unpack_array(const std::vector<char> &buf, std::size_t &off, std::vector<T>
   off += n * sizeof(T);
 }
 
+// Each edge's bodies by two merges with the sorted ids rather than a search per end: the edges
+// are in the order of their first ids, and their second ids are put in order by a sort.
+void find_ends(const std::vector<std::int64_t> &ids, const std::vector<ExactPieces::Edge> &edges,
+               std::vector<std::pair<std::uint32_t, std::uint32_t>> &ends) {
+  const auto n = static_cast<std::uint32_t>(ids.size());
+  const auto merge = [&](std::uint32_t &at, std::int64_t id) {
+    while (at < n && ids[at] < id) ++at;
+    return at < n && ids[at] == id ? at : n;
+  };
+  ends.resize(edges.size());
+  std::uint32_t at = 0;
+  for (std::size_t k = 0; k < edges.size(); ++k) ends[k].first = merge(at, edges[k].a);
+  std::vector<std::pair<std::int64_t, std::uint32_t>> second(edges.size());
+  for (std::size_t k = 0; k < edges.size(); ++k)
+    second[k] = {edges[k].b, static_cast<std::uint32_t>(k)};
+  std::sort(second.begin(), second.end());
+  at = 0;
+  for (const auto &[id, k] : second) ends[k].second = merge(at, id);
+}
+
 }  // namespace
 
 void ExactPieces::tidy() {
-  // Sorted through a permutation: a body is 120 bytes. A body's largest known degree first: a
-  // join in a later round raises it.
-  const auto known = [](std::uint32_t d) { return d == kDegreeUnknown ? -1 : std::int64_t{d}; };
-  std::vector<std::uint32_t> order(bodies.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(), [&](std::uint32_t x, std::uint32_t y) {
-    const Body &a = bodies[x], &b = bodies[y];
-    return a.id != b.id ? a.id < b.id : known(a.degree) > known(b.degree);
+  // Sorted through compact keys (a body is 120 bytes): by id, a body's largest known degree
+  // first (a join in a later round raises it), and the first of each id kept. Bodies of one id
+  // and degree carry the same bits, so which of them is kept does not matter.
+  struct Key {
+    std::int64_t id;
+    std::int64_t degree;  // -1: unknown
+    std::uint32_t at;
+  };
+  std::vector<Key> keys(bodies.size());
+  for (std::size_t k = 0; k < bodies.size(); ++k) {
+    const std::uint32_t d = bodies[k].degree;
+    keys[k] = {bodies[k].id, d == kDegreeUnknown ? -1 : std::int64_t{d},
+               static_cast<std::uint32_t>(k)};
+  }
+  std::sort(keys.begin(), keys.end(), [](const Key &a, const Key &b) {
+    return a.id != b.id ? a.id < b.id : a.degree > b.degree;
   });
   std::vector<Body> sorted;
-  sorted.reserve(order.size());
-  for (const std::uint32_t k : order)
-    if (sorted.empty() || sorted.back().id != bodies[k].id) sorted.push_back(bodies[k]);
+  sorted.reserve(keys.size());
+  ids.clear();
+  for (const Key &k : keys)
+    if (ids.empty() || ids.back() != k.id) {
+      sorted.push_back(bodies[k.at]);
+      ids.push_back(k.id);
+    }
   bodies.swap(sorted);
   // Of an edge sent twice, the first kept: a candidate not proven apart before one proven so.
   std::sort(edges.begin(), edges.end(), [](const Edge &x, const Edge &y) {
@@ -54,15 +86,13 @@ void ExactPieces::tidy() {
   edges.erase(std::unique(edges.begin(), edges.end(),
                           [](const Edge &x, const Edge &y) { return x.a == y.a && x.b == y.b; }),
               edges.end());
-  ends.resize(edges.size());
-  for (std::size_t k = 0; k < edges.size(); ++k) ends[k] = {at(edges[k].a), at(edges[k].b)};
+  find_ends(ids, edges, ends);
 }
 
 std::uint32_t ExactPieces::at(std::int64_t id) const {
-  const auto it = std::lower_bound(bodies.begin(), bodies.end(), id,
-                                   [](const Body &b, std::int64_t v) { return b.id < v; });
-  if (it == bodies.end() || it->id != id) return static_cast<std::uint32_t>(bodies.size());
-  return static_cast<std::uint32_t>(it - bodies.begin());
+  const auto it = std::lower_bound(ids.begin(), ids.end(), id);
+  if (it == ids.end() || *it != id) return static_cast<std::uint32_t>(ids.size());
+  return static_cast<std::uint32_t>(it - ids.begin());
 }
 
 void read_exact_state(const Particles &p, std::size_t i, double (&s)[kExactState]) {

@@ -44,6 +44,7 @@ struct ExactPieces {
   std::vector<Body> bodies;                                   // by id after tidy()
   std::vector<Edge> edges;                                    // by (a, b) after tidy()
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // edges' bodies (after tidy())
+  std::vector<std::int64_t> ids;                              // the bodies' ids (after tidy())
 
   // Sorts and drops duplicates, keeping a body's largest known degree (its owner's, which
   // grows with the joins of later rounds), and finds every edge's bodies.

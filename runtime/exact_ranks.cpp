@@ -107,12 +107,16 @@ ExactComponents components(std::size_t n, const std::vector<Contact> &candidates
 
 // By cluster: whether it has a body of this round's pieces (`fresh`, sorted ids), i.e. is new
 // or changed since the last round.
+// The fresh bodies are found by one merge of the two sorted lists of ids, not a search each.
 std::vector<char> renewed_clusters(const ExactPieces &pieces, const ExactClusters &ec,
                                    const std::vector<std::int64_t> &fresh) {
+  const std::vector<std::int64_t> &ids = pieces.ids;
   std::vector<char> renewed(ec.count(), 0);
-  for (std::size_t c = 0; c < ec.count(); ++c)
-    for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1] && !renewed[c]; ++k)
-      renewed[c] = std::binary_search(fresh.begin(), fresh.end(), pieces.bodies[ec.members[k]].id);
+  std::size_t f = 0;
+  for (std::size_t b = 0; b < ids.size(); ++b) {
+    while (f < fresh.size() && fresh[f] < ids[b]) ++f;
+    if (f < fresh.size() && fresh[f] == ids[b]) renewed[ec.cluster_of[b]] = 1;
+  }
   return renewed;
 }
 
@@ -333,22 +337,33 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
   for (auto &o : spanning_out_) o.clear();
   ExactPieces &pieces = round.pieces;
   const std::size_t first_new = pieces.bodies.size();
-  // Each body's edges here, as ids (a < b): its candidates and joins.
+  // Each body's edges here, as ids (a < b): its candidates and joins; those of the components
+  // that go, by component (a counting sort, stable: one flat array, not a vector each).
   std::vector<std::uint32_t> degree(advanced(), 0);
-  std::vector<std::vector<ExactPieces::Edge>> edges(cc.count());
+  std::vector<std::pair<std::uint32_t, ExactPieces::Edge>> tagged;
   const auto add_edge = [&](std::uint32_t a, std::uint32_t b, std::int32_t kind) {
     ++degree[a], ++degree[b];
     const std::uint32_t c = cc.comp_of[a];
     if (!cc.spanning[c] || !changed[c]) return;
     std::int64_t ia = particles_.id[a], ib = particles_.id[b];
     if (ia > ib) std::swap(ia, ib);
-    edges[c].push_back({ia, ib, kind});
+    tagged.push_back({c, {ia, ib, kind}});
   };
   for (const Contact &ct : contacts_) add_edge(ct.i, ct.j, ct.apart ? 2 : 1);
   for (const auto &[a, b] : round.joins) add_edge(a, b, 0);
+  std::vector<std::uint32_t> edges_start(cc.count() + 1, 0);
+  for (const auto &t : tagged) ++edges_start[t.first + 1];
+  for (std::size_t c = 0; c < cc.count(); ++c) edges_start[c + 1] += edges_start[c];
+  std::vector<ExactPieces::Edge> by_component(tagged.size());
+  {
+    std::vector<std::uint32_t> at(edges_start.begin(), edges_start.end() - 1);
+    for (const auto &[c, e] : tagged) by_component[at[c]++] = e;
+  }
   std::vector<ExactPieces::Body> bodies;
+  std::vector<ExactPieces::Edge> edges;
   for (std::size_t c = 0; c < cc.count(); ++c) {
     if (!cc.spanning[c] || !changed[c]) continue;
+    edges.assign(by_component.begin() + edges_start[c], by_component.begin() + edges_start[c + 1]);
     bodies.clear();
     for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
       const std::uint32_t b = cc.bodies[k];
@@ -358,9 +373,9 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
       read_exact_state(particles_, b, body.state);
       bodies.push_back(body);
     }
-    post_piece(bodies, edges[c]);
+    post_piece(bodies, edges);
     pieces.bodies.insert(pieces.bodies.end(), bodies.begin(), bodies.end());
-    pieces.edges.insert(pieces.edges.end(), edges[c].begin(), edges[c].end());
+    pieces.edges.insert(pieces.edges.end(), edges.begin(), edges.end());
   }
   std::vector<std::int64_t> fresh;
   swap_pieces(pieces, first_new, fresh);

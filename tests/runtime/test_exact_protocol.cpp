@@ -59,6 +59,33 @@ TEST(ExactProtocol, AClusterIsCompleteOnlyWithEveryOwnersPiece) {
   EXPECT_FALSE(exact_clusters(short_of_one).complete[0]);
 }
 
+// tidy() finds each edge's bodies (by merging with the sorted ids) where at() does, for edges
+// in any order, duplicated, and with ends in no piece; at() finds every body and nothing else.
+TEST(ExactProtocol, EveryEdgeFindsItsBodies) {
+  for (std::int64_t n = 0; n <= 40; ++n) {
+    ExactPieces r;
+    for (std::int64_t k = n - 1; k >= 0; --k) r.bodies.push_back(body(3 * k + 5));
+    for (std::int64_t k = 0; k < 3 * n; ++k) {
+      const std::int64_t a = 3 * ((7 * k) % (n + 1)) + 5, b = 3 * ((11 * k + 3) % (n + 2)) + 5;
+      if (a != b) r.edges.push_back({std::min(a, b), std::max(a, b), 1});
+    }
+    r.tidy();
+    ASSERT_EQ(r.bodies.size(), static_cast<std::size_t>(n));
+    for (std::int64_t k = 0; k < n; ++k) EXPECT_EQ(r.bodies[r.at(3 * k + 5)].id, 3 * k + 5);
+    for (const std::int64_t absent : {std::int64_t{-1}, std::int64_t{4}, 3 * n + 5})
+      EXPECT_EQ(r.at(absent), r.bodies.size()) << n << " " << absent;
+    ASSERT_EQ(r.ends.size(), r.edges.size());
+    for (std::size_t k = 0; k < r.edges.size(); ++k) {
+      EXPECT_EQ(r.ends[k].first, r.at(r.edges[k].a)) << n << " " << k;
+      EXPECT_EQ(r.ends[k].second, r.at(r.edges[k].b)) << n << " " << k;
+      if (k > 0) {
+        EXPECT_LT(std::make_pair(r.edges[k - 1].a, r.edges[k - 1].b),
+                  std::make_pair(r.edges[k].a, r.edges[k].b));
+      }
+    }
+  }
+}
+
 TEST(ExactProtocol, TheScratchProblemHoldsTheClustersBodiesEdgesAndNearPairs) {
   const Chain c;
   ExactPieces r;
