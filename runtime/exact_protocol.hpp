@@ -44,12 +44,13 @@ struct ExactPieces {
   std::vector<Body> bodies;                                   // by id after tidy()
   std::vector<Edge> edges;                                    // by (a, b) after tidy()
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // edges' bodies (after tidy())
-  std::vector<std::int64_t> ids;                              // the bodies' ids (after tidy())
+  std::vector<std::int64_t> ids;  // the bodies' ids, compact for the merges (after tidy())
 
   // Sorts and drops duplicates, keeping a body's largest known degree (its owner's, which
   // grows with the joins of later rounds), and finds every edge's bodies.
   void tidy();
-  // Position of body `id` in `bodies` (bodies.size() if absent; after tidy()).
+  // Position of body `id` in `bodies` (bodies.size() if absent; after tidy()): one lookup, the
+  // reference the ends that tidy() merges are tested against.
   std::uint32_t at(std::int64_t id) const;
 };
 

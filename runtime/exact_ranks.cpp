@@ -106,8 +106,7 @@ ExactComponents components(std::size_t n, const std::vector<Contact> &candidates
 }
 
 // By cluster: whether it has a body of this round's pieces (`fresh`, sorted ids), i.e. is new
-// or changed since the last round.
-// The fresh bodies are found by one merge of the two sorted lists of ids, not a search each.
+// or changed since the last round; found by one merge of the two sorted lists of ids.
 std::vector<char> renewed_clusters(const ExactPieces &pieces, const ExactClusters &ec,
                                    const std::vector<std::int64_t> &fresh) {
   const std::vector<std::int64_t> &ids = pieces.ids;
