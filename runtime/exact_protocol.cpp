@@ -115,11 +115,24 @@ void pack_piece(std::vector<char> &buf, const std::vector<ExactPieces::Body> &bo
   pack_array(buf, edges);
 }
 
-void unpack_pieces(const std::vector<char> &buf, ExactPieces &r) {
-  for (std::size_t off = 0; off < buf.size();) {
+namespace {
+
+void unpack_pieces_from(const std::vector<char> &buf, std::size_t off, ExactPieces &r) {
+  while (off < buf.size()) {
     unpack_array(buf, off, r.bodies);
     unpack_array(buf, off, r.edges);
   }
+}
+
+}  // namespace
+
+void unpack_pieces(const std::vector<char> &buf, ExactPieces &r) { unpack_pieces_from(buf, 0, r); }
+
+void unpack_message(const std::vector<char> &buf, std::vector<ExactResult> &results,
+                    ExactPieces &r) {
+  std::size_t off = 0;
+  unpack_array(buf, off, results);
+  unpack_pieces_from(buf, off, r);
 }
 
 ExactClusters exact_clusters(const ExactPieces &r) {

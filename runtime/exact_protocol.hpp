@@ -112,4 +112,10 @@ FlownBody flown_body(const ExactResult &r, std::uint32_t body);
 void pack_results(std::vector<char> &buf, const std::vector<ExactResult> &results);
 void unpack_results(const std::vector<char> &buf, std::vector<ExactResult> &out);
 
+// A message of the pieces' exchange: one array of results (pack_results; the clusters the
+// sender solved whole, for bodies the receiver holds; possibly none), then pieces (pack_piece).
+// Appends the results to `results` and the pieces to `r` (untidy).
+void unpack_message(const std::vector<char> &buf, std::vector<ExactResult> &results,
+                    ExactPieces &r);
+
 }  // namespace hardrod

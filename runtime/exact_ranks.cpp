@@ -4,8 +4,10 @@
 // Each rank detects the candidates of the bodies it owns (the pair list keeps the pairs with an
 // owned body), so a cluster's edges are the union of its owners'. A round:
 //   1. the components of this rank's edges (candidates and the joins agreed so far) over the
-//      bodies it advances; a component none of whose bodies other ranks hold is a whole
-//      cluster and is solved here (collide_once); the others are *spanning*;
+//      bodies it advances; a component of bodies this rank owns is a whole cluster and is
+//      solved here (collide_once); where other ranks hold some of its bodies (as shadows),
+//      their results go to them with the next exchange. A component with a shadow is
+//      *spanning*;
 //   2. each spanning component goes as a piece (bodies at the step's start, edges, the owned
 //      bodies' degrees) to every owner and holder of its bodies; a rank merges what it gets
 //      with its own and solves every complete merged cluster that has a body it advances, on
@@ -44,7 +46,8 @@ constexpr std::uint32_t kNoBody = std::numeric_limits<std::uint32_t>::max();
 struct ExactComponents {
   std::vector<std::uint32_t> comp_of;  // by body; kNoSet: in no edge
   std::vector<std::uint32_t> start{0}, bodies;
-  std::vector<char> spanning;  // by component: a body other ranks hold
+  std::vector<char> spanning;  // by component: a body other ranks own (a shadow here)
+  std::vector<char> held;      // by component: only owned bodies, one of them held elsewhere
 
   std::size_t count() const { return spanning.size(); }
 };
@@ -58,6 +61,7 @@ struct ExactRound {
   std::vector<FlownBody> flown;         // results, including replaced ones (see flown_at)
   std::vector<std::uint32_t> flown_at;  // by body: its result in `flown` (kNoBody: none)
   std::vector<char> dirty;              // by body: in a join of the last round (round 0: all)
+  std::vector<ExactResult> outgoing;    // results of held components, for the next exchange
   ExactPieces pieces;                   // every piece sent or received in the step
   ExactStats work;                      // every round's passes
   long long unresolved = 0;             // advanced bodies of spanning clusters left unsolved
@@ -87,7 +91,11 @@ struct ExactRound {
 
 namespace {
 
-ExactComponents components(std::size_t n, const std::vector<Contact> &candidates,
+// A component with a shadow is spanning: its owners hold edges of it this rank lacks. A
+// component of owned bodies only is whole here (every pair of a body owned here is in this
+// rank's list), even where other ranks hold its bodies (it is *held*): they know none of its
+// edges (their lists keep the pairs with a body they own) and need only its results.
+ExactComponents components(std::size_t n, std::size_t owned, const std::vector<Contact> &candidates,
                            const std::vector<BodyPair> &joins, const std::vector<char> &shared) {
   std::vector<std::uint32_t> parent(n, kNoBody), involved;
   const auto edge = [&](std::uint32_t a, std::uint32_t b) {
@@ -100,8 +108,12 @@ ExactComponents components(std::size_t n, const std::vector<Contact> &candidates
   ExactComponents cc;
   cc.comp_of.assign(n, kNoSet);
   cc.spanning.assign(list_sets(parent, involved, cc.comp_of, cc.start, cc.bodies), 0);
-  for (const std::uint32_t b : involved)
-    if (shared[b]) cc.spanning[cc.comp_of[b]] = 1;
+  cc.held.assign(cc.count(), 0);
+  for (const std::uint32_t b : involved) {
+    if (b >= owned) cc.spanning[cc.comp_of[b]] = 1;
+    if (shared[b]) cc.held[cc.comp_of[b]] = 1;
+  }
+  for (std::size_t c = 0; c < cc.count(); ++c) cc.held[c] = cc.held[c] && !cc.spanning[c];
   return cc;
 }
 
@@ -133,7 +145,7 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
   const bool incremental = comm_.size() == 2 && !results_path();
   std::vector<double> overrun_scratch;
   for (;;) {
-    const ExactComponents cc = components(n, contacts_, round.joins, shared_);
+    const ExactComponents cc = components(n, owned_, contacts_, round.joins, shared_);
     std::vector<char> changed(cc.count(), 0);  // a component with a joined body: solved again
     for (std::size_t c = 0; c < cc.count(); ++c) {
       for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k)
@@ -179,7 +191,10 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
   }
 }
 
-// The changed components no other rank holds a body of: solved here.
+// The changed components of owned bodies only: solved here; for the bodies other ranks hold,
+// results for the next exchange. In a step's first round only those whose velocity changed
+// (the holders have nothing to replace); after joins every one, so that a result from an
+// earlier round is replaced even where the body no longer collides.
 void Simulation::solve_local_components(ExactRound &round, const ExactComponents &cc,
                                         const std::vector<char> &changed) {
   std::vector<char> solve(cc.count(), 0);
@@ -195,6 +210,7 @@ void Simulation::solve_local_components(ExactRound &round, const ExactComponents
                              scene_.dt, exact_settings_, exact_scratch_, flown);
   std::vector<const FlownBody *> flown_of(advanced(), nullptr);
   for (const FlownBody &f : flown) flown_of[f.body] = &f;
+  const bool first_round = round.joins.empty();
   for (std::size_t c = 0; c < cc.count(); ++c) {
     if (!solve[c]) continue;
     const std::uint32_t *first = cc.bodies.data() + cc.start[c];
@@ -202,8 +218,12 @@ void Simulation::solve_local_components(ExactRound &round, const ExactComponents
     std::int64_t lowest = std::numeric_limits<std::int64_t>::max();  // the cluster's label
     for (const std::uint32_t *b = first; b != last; ++b)
       lowest = std::min(lowest, particles_.id[*b]);
-    for (const std::uint32_t *b = first; b != last; ++b)
-      round.settle(*b, lowest, static_cast<std::uint32_t>(last - first), flown_of[*b]);
+    const auto size = static_cast<std::uint32_t>(last - first);
+    for (const std::uint32_t *b = first; b != last; ++b) {
+      round.settle(*b, lowest, size, flown_of[*b]);
+      if (!cc.held[c] || !shared_[*b] || (flown_of[*b] == nullptr && first_round)) continue;
+      round.outgoing.push_back(exact_result(particles_.id[*b], lowest, size, flown_of[*b]));
+    }
   }
 }
 
@@ -286,7 +306,7 @@ void Simulation::forward_pieces(ExactRound &round, std::vector<std::int64_t> &fr
     std::vector<std::vector<ExactPieces::Edge>> edges(ec.count());
     for (std::size_t k = 0; k < pieces.edges.size(); ++k)
       edges[ec.cluster_of[pieces.ends[k].first]].push_back(pieces.edges[k]);
-    for (auto &o : spanning_out_) o.clear();
+    open_messages({});
     std::vector<ExactPieces::Body> bodies;
     for (std::size_t c = 0; c < ec.count(); ++c) {
       if (!renewed[c]) continue;
@@ -295,7 +315,8 @@ void Simulation::forward_pieces(ExactRound &round, std::vector<std::int64_t> &fr
         bodies.push_back(pieces.bodies[ec.members[k]]);
       post_piece(bodies, edges[c]);
     }
-    swap_pieces(pieces, pieces.bodies.size(), fresh);
+    std::vector<ExactResult> none;
+    swap_pieces(pieces, pieces.bodies.size(), fresh, none);
     std::sort(fresh.begin(), fresh.end());
     fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
   }
@@ -310,14 +331,40 @@ void Simulation::post_piece(const std::vector<ExactPieces::Body> &bodies,
   for (int r : targets) pack_piece(spanning_out_[domain_.partner_slot(r)], bodies, edges);
 }
 
-// The posted pieces exchanged with the partners and what arrives added to `pieces`, tidied;
-// `fresh` gains the ids of every body added to `pieces` since it held `first` bodies.
+// The messages to the partners (spanning_out_) emptied, each opened with `results` for the
+// bodies that partner owns or holds (unpack_message's order).
+void Simulation::open_messages(const std::vector<ExactResult> &results) {
+  std::vector<std::vector<ExactResult>> to(domain_.partners().size());
+  std::vector<int> targets;
+  for (const ExactResult &r : results) {
+    targets.clear();
+    add_targets(r.id, targets);
+    for (int t : targets) to[domain_.partner_slot(t)].push_back(r);
+  }
+  spanning_out_.resize(to.size());
+  for (std::size_t s = 0; s < to.size(); ++s) {
+    spanning_out_[s].clear();
+    pack_results(spanning_out_[s], to[s]);
+  }
+}
+
+// The posted messages exchanged with the partners: the results that arrive into `results`,
+// the pieces added to `pieces`, tidied; `fresh` gains the ids of every body added to `pieces`
+// since it held `first` bodies.
 void Simulation::swap_pieces(ExactPieces &pieces, std::size_t first,
-                             std::vector<std::int64_t> &fresh) {
+                             std::vector<std::int64_t> &fresh, std::vector<ExactResult> &results) {
   for (const auto &buf : comm_.exchange("exact_pieces", domain_.partners(), spanning_out_))
-    unpack_pieces(buf, pieces);
+    unpack_message(buf, results, pieces);
   for (std::size_t k = first; k < pieces.bodies.size(); ++k) fresh.push_back(pieces.bodies[k].id);
   pieces.tidy();
+}
+
+// A held component's result from its owner, in place of any earlier one.
+void Simulation::replace_exact(ExactRound &round, const ExactResult &r) {
+  const auto it = index_.find(r.id);
+  if (it == index_.end() || it->second >= advanced()) return;
+  round.forget(it->second);
+  settle_exact(round, it->second, r);
 }
 
 void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactResult &r) {
@@ -327,13 +374,14 @@ void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactRes
   round.settle(b, r.label, r.size, &f);
 }
 
-// This rank's pieces of the changed spanning components, to the owners and holders of their
-// bodies, and what the partners sent, added to the step's pieces (tidy); returns the ids of
-// the bodies in this round's pieces.
+// This rank's results of held components and pieces of the changed spanning components, to
+// the owners and holders of their bodies; what the partners sent: their results settled, their
+// pieces added to the step's pieces (tidy). Returns the ids of the bodies in this round's
+// pieces.
 std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const ExactComponents &cc,
                                                       const std::vector<char> &changed) {
-  spanning_out_.resize(domain_.partners().size());
-  for (auto &o : spanning_out_) o.clear();
+  open_messages(round.outgoing);
+  round.outgoing.clear();
   ExactPieces &pieces = round.pieces;
   const std::size_t first_new = pieces.bodies.size();
   // Each body's edges here, as ids (a < b): its candidates and joins; those of the components
@@ -377,7 +425,9 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
     pieces.edges.insert(pieces.edges.end(), edges.begin(), edges.end());
   }
   std::vector<std::int64_t> fresh;
-  swap_pieces(pieces, first_new, fresh);
+  std::vector<ExactResult> results;
+  swap_pieces(pieces, first_new, fresh, results);
+  for (const ExactResult &r : results) replace_exact(round, r);
   return fresh;
 }
 

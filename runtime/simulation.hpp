@@ -272,13 +272,16 @@ class Simulation {
   void forward_pieces(ExactRound &round, std::vector<std::int64_t> &fresh);
   void post_piece(const std::vector<ExactPieces::Body> &bodies,
                   const std::vector<ExactPieces::Edge> &edges);
-  void swap_pieces(ExactPieces &pieces, std::size_t first, std::vector<std::int64_t> &fresh);
+  void open_messages(const std::vector<ExactResult> &results);
+  void swap_pieces(ExactPieces &pieces, std::size_t first, std::vector<std::int64_t> &fresh,
+                   std::vector<ExactResult> &results);
   // --results-exchange for the exact method: on two ranks, where one exchange of pieces gives
   // every rank its clusters whole (on more, pieces are forwarded instead and the switch is
   // ignored: a solver could not reach every rank that needs its results).
   bool results_path() const { return results_exchange_ && comm_.size() == 2; }
   void exchange_exact_results(ExactRound &round, const std::vector<ExactResult> &results);
   void settle_exact(ExactRound &round, std::uint32_t body, const ExactResult &result);
+  void replace_exact(ExactRound &round, const ExactResult &result);
   ExactStats exact_counts(const ExactRound &round, const std::vector<FlownBody> &flown) const;
   void restore_constraints();  // 7
   void apply_thermostat();     // 7

@@ -158,5 +158,35 @@ TEST(ExactProtocol, ResultsCarryTheEndStateAndTheCountedCollisions) {
   EXPECT_TRUE(back.virial.raw() == f.virial.raw());
 }
 
+// A message of the pieces' exchange: its results first (none, or some), then its pieces.
+TEST(ExactProtocol, AMessageCarriesResultsThenPieces) {
+  const Chain c;
+  for (const std::size_t count : {0u, 1u, 3u}) {
+    std::vector<ExactResult> sent;
+    for (std::size_t k = 0; k < count; ++k)
+      sent.push_back(exact_result(100 + static_cast<std::int64_t>(k), 100, 3, nullptr));
+    std::vector<char> buf;
+    pack_results(buf, sent);
+    pack_piece(buf, c.a_bodies, c.a_edges);
+    pack_piece(buf, c.b_bodies, c.b_edges);
+    std::vector<ExactResult> got{exact_result(5, 5, 1, nullptr)};  // appended to
+    ExactPieces r;
+    unpack_message(buf, got, r);
+    ASSERT_EQ(got.size(), count + 1);
+    for (std::size_t k = 0; k < count; ++k) EXPECT_EQ(got[k + 1].id, sent[k].id);
+    EXPECT_EQ(r.bodies.size(), c.a_bodies.size() + c.b_bodies.size());
+    EXPECT_EQ(r.edges.size(), c.a_edges.size() + c.b_edges.size());
+    r.tidy();
+    EXPECT_EQ(r.bodies.size(), 4u);
+  }
+  std::vector<char> results_only;  // a message with no pieces
+  pack_results(results_only, {exact_result(9, 9, 1, nullptr)});
+  std::vector<ExactResult> got;
+  ExactPieces r;
+  unpack_message(results_only, got, r);
+  EXPECT_EQ(got.size(), 1u);
+  EXPECT_TRUE(r.bodies.empty() && r.edges.empty());
+}
+
 }  // namespace
 }  // namespace hardrod
