@@ -203,6 +203,10 @@ class ClusterPass {
 
   // Every listed pair of slot s with a partner in the cluster (but `skip`), from t.
   void predict_pairs_of(std::uint32_t s, std::uint32_t skip, double t) {
+    if (count_ == 2) {  // the cluster's one edge is its one listed pair: no walk of the list
+      if (1 - s != skip) predict(s, 1 - s, t, true);
+      return;
+    }
     each_partner_in_cluster(bodies_[s], [&](std::uint32_t other) {
       const std::uint32_t o = slot(other);
       if (o != skip) predict(s, o, t, true);
