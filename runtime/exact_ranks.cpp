@@ -18,8 +18,8 @@
 //   3. the overrun check (overrun_reaches) over this rank's listed pairs: the joins it finds
 //      are found by the owners of both bodies, since both hold both bodies' results;
 //   4. one max-reduction: new joins anywhere, a body left unresolved, the largest reach. With
-//      joins, the next round solves again what they changed (on two ranks only that; on more,
-//      everything, see collide_on_ranks).
+//      joins, the next round solves again what they changed (on more than two ranks also
+//      every spanning component, see collide_on_ranks).
 // This is the kernel's own loop (collide_exactly: solve, check, join, solve the joined again)
 // with ranks in it, so the final clusters are the one-rank run's and so are the bits. Each
 // collision and its virial is counted by the owner of its lower-id body (FlownBody); the
@@ -179,13 +179,18 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
     }
     for (const auto &[a, b] : joins)  // each join counted by the owner of its lower-id body
       round.work.regrown += (particles_.id[a] < particles_.id[b] ? a : b) < owned_;
-    // On two ranks every rank holding a body of a changed cluster gets the changed piece (the
-    // argument of one exchange), so only the changed components go again, merged with the
+    // The components the joins changed go again. On two ranks every rank holding a body of a
+    // changed cluster gets the changed piece (the argument of one exchange), merged with the
     // earlier pieces. With more, a rank may know a cluster only through pieces forwarded by
     // others and cannot tell it changed; an earlier piece could even make a changed cluster
-    // look complete: all go again, and the step's earlier pieces are dropped.
-    std::fill(round.dirty.begin(), round.dirty.end(), incremental ? 0 : 1);
-    if (!incremental) round.pieces = ExactPieces();
+    // look complete: every spanning component (one with a shadow) goes again, and the step's
+    // earlier pieces are dropped. A component of owned bodies changes only by a join of one of
+    // its bodies, which its owner finds: on any number of ranks only those are solved again.
+    std::fill(round.dirty.begin(), round.dirty.end(), 0);
+    if (!incremental) {
+      round.pieces = ExactPieces();
+      std::fill(round.dirty.begin() + static_cast<long>(owned_), round.dirty.end(), 1);
+    }
     for (const auto &[a, b] : joins) round.dirty[a] = round.dirty[b] = 1;
     round.joins.insert(round.joins.end(), joins.begin(), joins.end());
   }
