@@ -60,11 +60,12 @@ struct ExactRound {
   std::vector<std::uint32_t> size;      // by body: its cluster's size
   std::vector<FlownBody> flown;         // results, including replaced ones (see flown_at)
   std::vector<std::uint32_t> flown_at;  // by body: its result in `flown` (kNoBody: none)
-  std::vector<char> dirty;              // by body: in a join of the last round (round 0: all)
-  std::vector<ExactResult> outgoing;    // results of held components, for the next exchange
-  ExactPieces pieces;                   // every piece sent or received in the step
-  ExactStats work;                      // every round's passes
-  long long unresolved = 0;             // advanced bodies of spanning clusters left unsolved
+  // By body: in a join of the last round (round 0: all; on more than two ranks every shadow).
+  std::vector<char> dirty;
+  std::vector<ExactResult> outgoing;  // results of held components, for the next exchange
+  ExactPieces pieces;                 // every piece sent or received in the step
+  ExactStats work;                    // every round's passes
+  long long unresolved = 0;           // advanced bodies of spanning clusters left unsolved
 
   void forget(std::uint32_t b) {
     label[b] = -1;
