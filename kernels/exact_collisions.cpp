@@ -501,8 +501,8 @@ void regroup(const std::vector<BodyPair> &joins, ExactScratch &scratch, Partitio
   std::vector<std::pair<std::uint32_t, std::uint32_t>> members;
   for (const std::uint32_t b : touched) members.emplace_back(set_root(scratch.parent, b), b);
   std::sort(members.begin(), members.end());
-  // By new cluster, each cluster's in the candidates' (canonical) order: their places in
-  // `candidates`, one array.
+  // By new cluster, and within one in the candidates' canonical order: they all point into the
+  // step's one array of candidates, which is in that order.
   std::vector<std::pair<std::uint32_t, const Contact *>> cands;
   for (const Contact *c : taken) cands.emplace_back(set_root(scratch.parent, c->i), c);
   std::sort(cands.begin(), cands.end(), [](const auto &x, const auto &y) {
