@@ -92,22 +92,90 @@ ContactClusters find_clusters(const std::vector<Contact> &contacts) {
   return cc;
 }
 
+namespace {
+
+// What every cluster's solve reads.
+struct Solve {
+  Particles &p;
+  std::vector<Contact> &contacts;
+  const std::vector<std::uint32_t> &order;  // contacts by cluster (ContactClusters::order)
+  double inv_m, inv_i, mass, inertia;
+  const SolverSettings &settings;
+};
+
+// A contact alone in its cluster: the exact elastic impulse.
+void resolve_isolated(const Solve &s, Contact &c) {
+  const double lambda =
+      std::max(0.0, (target_velocity(c.approach_velocity) - c.approach_velocity) / c.inverse_mass);
+  c.impulse = lambda;
+  if (lambda > 0.0) apply_impulse(s.p, c, lambda, s.inv_m, s.inv_i);
+}
+
+// The bodies of contacts order[begin, end), in id order (so that the energy sums round the same
+// way on every rank), and the largest approach speed among those contacts (`scale`).
+std::vector<std::uint32_t> members_of(const Solve &s, std::size_t begin, std::size_t end,
+                                      double &scale) {
+  std::vector<std::uint32_t> members;
+  scale = 0.0;
+  for (std::size_t k = begin; k < end; ++k) {
+    const Contact &c = s.contacts[s.order[k]];
+    members.push_back(c.i);
+    members.push_back(c.j);
+    scale = std::max(scale, std::fabs(c.approach_velocity));
+  }
+  const Particles &p = s.p;
+  std::sort(members.begin(), members.end(),
+            [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
+  members.erase(std::unique(members.begin(), members.end()), members.end());
+  return members;
+}
+
+double kinetic_energy_of(const Solve &s, const std::vector<std::uint32_t> &members) {
+  double sum = 0.0;
+  for (std::uint32_t b : members) sum += kinetic_energy_of(s.p, b, s.mass, s.inertia);
+  return sum;
+}
+
+// Projected Gauss-Seidel sweeps over contacts order[begin, end) until no impulse changes by more
+// than `tolerance` (as a velocity). Returns the sweeps before the last (max_iterations when it
+// did not converge).
+long long sweep_cluster(const Solve &s, std::size_t begin, std::size_t end, double tolerance) {
+  long long it = 0;
+  for (; it < s.settings.max_iterations; ++it) {
+    double residual = 0.0;
+    for (std::size_t k = begin; k < end; ++k) {
+      Contact &c = s.contacts[s.order[k]];
+      const double u = normal_velocity(s.p, c);
+      const double wanted = c.impulse + (target_velocity(c.approach_velocity) - u) / c.inverse_mass;
+      const double lambda = std::max(0.0, wanted);
+      const double delta = lambda - c.impulse;
+      if (delta != 0.0) apply_impulse(s.p, c, delta, s.inv_m, s.inv_i);
+      c.impulse = lambda;
+      residual = std::max(residual, std::fabs(delta) * c.inverse_mass);
+    }
+    if (residual <= tolerance) break;
+  }
+  return it;
+}
+
+}  // namespace
+
 ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<Contact> &contacts,
                                  const ContactClusters &cc, const std::vector<char> &active,
                                  const SolverSettings &settings, std::size_t counted_below) {
-  ResolutionStats stats;
-  const double inv_m = 1.0 / shape.mass;
-  const double inv_i = shape.inverse_inertia();
-  const double inertia = shape.is_sphere() ? 0.0 : shape.inertia_perp();
+  const Solve s{p,
+                contacts,
+                cc.order,
+                1.0 / shape.mass,
+                shape.inverse_inertia(),
+                shape.mass,
+                shape.is_sphere() ? 0.0 : shape.inertia_perp(),
+                settings};
   const long ncl = static_cast<long>(cc.count());
-  const std::vector<std::uint32_t> &by_cluster = cc.order;
-  const std::vector<std::size_t> &cluster_start = cc.start;
   for (Contact &c : contacts) c.approach_velocity = normal_velocity(p, c);
 
-  const int nthreads = omp_get_max_threads();
-  std::vector<ExactSum> energy(nthreads);
+  std::vector<ExactSum> energy(omp_get_max_threads());
   long long clusters = 0, iterations_max = 0, unconverged = 0;
-
   // A handful of clusters (the common case at small dt) is resolved on the calling thread.
 #pragma omp parallel reduction(+ : clusters, unconverged) reduction(max : iterations_max) if (ncl > 32)
   {
@@ -115,58 +183,25 @@ ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<C
 #pragma omp for schedule(dynamic, 16)
     for (long cl = 0; cl < ncl; ++cl) {
       if (!active.empty() && !active[cl]) continue;
-      const std::size_t begin = cluster_start[cl], end = cluster_start[cl + 1];
-      if (end - begin == 1) {  // isolated contact: the exact elastic impulse
-        Contact &c = contacts[by_cluster[begin]];
-        const double lambda = std::max(
-            0.0, (target_velocity(c.approach_velocity) - c.approach_velocity) / c.inverse_mass);
-        c.impulse = lambda;
-        if (lambda > 0.0) apply_impulse(p, c, lambda, inv_m, inv_i);
+      const std::size_t begin = cc.start[cl], end = cc.start[cl + 1];
+      if (end - begin == 1) {
+        resolve_isolated(s, contacts[cc.order[begin]]);
         continue;
       }
-      const bool counted = contacts[by_cluster[begin]].i < counted_below;
-      if (counted) ++clusters;
-      std::vector<std::uint32_t> members;
+      const bool counted = contacts[cc.order[begin]].i < counted_below;
+      clusters += counted;
       double scale = 0.0;
-      for (std::size_t k = begin; k < end; ++k) {
-        const Contact &c = contacts[by_cluster[k]];
-        members.push_back(c.i);
-        members.push_back(c.j);
-        scale = std::max(scale, std::fabs(c.approach_velocity));
-      }
-      // In id order, so that the energy sums below round the same way on every rank.
-      std::sort(members.begin(), members.end(),
-                [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
-      members.erase(std::unique(members.begin(), members.end()), members.end());
-      double energy_before = 0.0;
-      if (counted)
-        for (std::uint32_t b : members)
-          energy_before += kinetic_energy_of(p, b, shape.mass, inertia);
-      const double tolerance = settings.tolerance * std::max(scale, 1e-300);
-      long long it = 0;
-      for (; it < settings.max_iterations; ++it) {
-        double residual = 0.0;
-        for (std::size_t k = begin; k < end; ++k) {
-          Contact &c = contacts[by_cluster[k]];
-          const double u = normal_velocity(p, c);
-          const double wanted =
-              c.impulse + (target_velocity(c.approach_velocity) - u) / c.inverse_mass;
-          const double lambda = std::max(0.0, wanted);
-          const double delta = lambda - c.impulse;
-          if (delta != 0.0) apply_impulse(p, c, delta, inv_m, inv_i);
-          c.impulse = lambda;
-          residual = std::max(residual, std::fabs(delta) * c.inverse_mass);
-        }
-        if (residual <= tolerance) break;
-      }
+      const std::vector<std::uint32_t> members = members_of(s, begin, end, scale);
+      const double energy_before = counted ? kinetic_energy_of(s, members) : 0.0;
+      const long long it =
+          sweep_cluster(s, begin, end, settings.tolerance * std::max(scale, 1e-300));
       if (!counted) continue;
       iterations_max = std::max(iterations_max, it + 1);
       if (it == settings.max_iterations) ++unconverged;
-      double energy_after = 0.0;
-      for (std::uint32_t b : members) energy_after += kinetic_energy_of(p, b, shape.mass, inertia);
-      my_energy.add(energy_after - energy_before);
+      my_energy.add(kinetic_energy_of(s, members) - energy_before);
     }
   }
+  ResolutionStats stats;
   stats.clusters = clusters;
   stats.iterations_max = iterations_max;
   stats.unconverged = unconverged;
