@@ -73,40 +73,38 @@ void coordinates(const Particles &p, std::size_t count, const std::array<double,
     for (std::size_t i = 0; i < count; ++i) occupied[a][static_cast<std::size_t>(at[a][i])] = 1;
 }
 
-}  // namespace
-
-void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
-                     double reach, bool fit) {
-  const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
-  int k = 2;  // cells per reach
+// Two cells per reach (a 125-cell stencil that reaches less volume) where every axis has room
+// for it and the bodies are dense enough: at least 16 per occupied cell of one per reach,
+// counted over the occupied window (the cells themselves, not the box, so this stays local to
+// a rank too). Leaves the coordinates of the one-per-reach grid it counted in `at`, `occupied`
+// and `binned` (zeros if it counted none).
+int cells_per_reach(const Particles &p, std::size_t count, const std::array<double, 3> &side,
+                    double reach, bool fit, std::array<std::vector<int>, 3> &at,
+                    std::array<std::vector<char>, 3> &occupied, std::array<int, 3> &binned) {
   for (int a = 0; a < 3; ++a)
-    if (std::floor(side[a] / (reach / 2)) < 5) k = 1;
-  std::array<std::vector<int>, 3> at;  // each body's cell coordinates in grid `binned`
-  std::array<std::vector<char>, 3> occupied;
-  std::array<int, 3> binned{0, 0, 0};
-  if (k == 2 && fit && count > 0) {
-    // Bodies per occupied cell of one cell per reach, counted over the window of one per
-    // reach (the cells themselves, not the box, so this stays local to a rank too).
-    const auto n = binned = grid_for(side, reach, 1);
-    coordinates(p, count, side, n, at, occupied);
-    std::array<int, 3> origin{}, extent{};
-    for (int a = 0; a < 3; ++a) occupied_window(occupied[a], origin[a], extent[a]);
-    std::vector<char> seen(static_cast<std::size_t>(extent[0]) * extent[1] * extent[2], 0);
-    std::size_t filled = 0;
-    for (std::size_t i = 0; i < count; ++i) {
-      std::size_t c = 0;
-      for (int a = 2; a >= 0; --a) {
-        int w = at[a][i] - origin[a];
-        if (w < 0) w += n[a];
-        c = c * static_cast<std::size_t>(extent[a]) + static_cast<std::size_t>(w);
-      }
-      filled += !seen[c];
-      seen[c] = 1;
+    if (std::floor(side[a] / (reach / 2)) < 5) return 1;
+  if (!fit || count == 0) return 2;
+  const auto n = binned = grid_for(side, reach, 1);
+  coordinates(p, count, side, n, at, occupied);
+  std::array<int, 3> origin{}, extent{};
+  for (int a = 0; a < 3; ++a) occupied_window(occupied[a], origin[a], extent[a]);
+  std::vector<char> seen(static_cast<std::size_t>(extent[0]) * extent[1] * extent[2], 0);
+  std::size_t filled = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    std::size_t c = 0;
+    for (int a = 2; a >= 0; --a) {
+      int w = at[a][i] - origin[a];
+      if (w < 0) w += n[a];
+      c = c * static_cast<std::size_t>(extent[a]) + static_cast<std::size_t>(w);
     }
-    if (count < 16 * filled) k = 1;
+    filled += !seen[c];
+    seen[c] = 1;
   }
-  list.cells = grid_for(side, reach, k);
+  return count < 16 * filled ? 1 : 2;
+}
 
+// The stencil of k cells per reach: the offsets per axis and their product.
+void set_stencil(CellList &list, int k) {
   list.full_stencil = true;
   for (int a = 0; a < 3; ++a) list.full_stencil &= list.cells[a] >= 2 * k + 1;
   for (int a = 0; a < 3; ++a) list.axis_offsets[a] = axis_offsets(list.cells[a], k);
@@ -114,15 +112,11 @@ void build_cell_list(CellList &list, const Particles &p, std::size_t count, cons
   for (int oz : list.axis_offsets[2])
     for (int oy : list.axis_offsets[1])
       for (int ox : list.axis_offsets[0]) list.stencil.push_back({ox, oy, oz});
+}
 
-  if (binned != list.cells) coordinates(p, count, side, list.cells, at, occupied);
-  if (fit && count > 0) {
-    for (int a = 0; a < 3; ++a) occupied_window(occupied[a], list.origin[a], list.extent[a]);
-  } else {
-    list.origin = {0, 0, 0};
-    list.extent = list.cells;
-  }
-
+// Bodies [0, count) into their window cells by a counting sort on the cell coordinates `at`:
+// cell_start, and order (each cell's bodies in rising index).
+void bin_bodies(CellList &list, const std::array<std::vector<int>, 3> &at, std::size_t count) {
   const int ncells = list.cell_count();
   std::vector<std::uint32_t> cell_of(count);
   list.cell_start.assign(static_cast<std::size_t>(ncells) + 1, 0);
@@ -141,6 +135,27 @@ void build_cell_list(CellList &list, const Particles &p, std::size_t count, cons
   std::vector<std::uint32_t> fill(list.cell_start.begin(), list.cell_start.end() - 1);
   for (std::size_t i = 0; i < count; ++i)
     list.order[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
+}
+
+}  // namespace
+
+void build_cell_list(CellList &list, const Particles &p, std::size_t count, const Box &box,
+                     double reach, bool fit) {
+  const std::array<double, 3> side{box.length.x, box.length.y, box.length.z};
+  std::array<std::vector<int>, 3> at;  // each body's cell coordinates in grid `binned`
+  std::array<std::vector<char>, 3> occupied;
+  std::array<int, 3> binned{0, 0, 0};
+  const int k = cells_per_reach(p, count, side, reach, fit, at, occupied, binned);
+  list.cells = grid_for(side, reach, k);
+  set_stencil(list, k);
+  if (binned != list.cells) coordinates(p, count, side, list.cells, at, occupied);
+  if (fit && count > 0) {
+    for (int a = 0; a < 3; ++a) occupied_window(occupied[a], list.origin[a], list.extent[a]);
+  } else {
+    list.origin = {0, 0, 0};
+    list.extent = list.cells;
+  }
+  bin_bodies(list, at, count);
 }
 
 }  // namespace hardrod
