@@ -214,40 +214,35 @@ nlohmann::json exact_json(Simulation &sim) {
            t.searches > 0 ? static_cast<double>(t.root_iterations) / t.searches : 0.0}};
 }
 
-}  // namespace
+// The system and the run's length.
+nlohmann::json scene_json(const Scene &scene, const Simulation &sim, long long steps_done,
+                          double production_time) {
+  return {{"shape", scene.shape_name},
+          {"n", scene.n},
+          {"aspect_ratio", scene.shape.length},
+          {"box", {scene.box.length.x, scene.box.length.y, scene.box.length.z}},
+          {"reduced_density", scene.reduced_density()},
+          {"packing_fraction", scene.packing_fraction()},
+          {"dt", scene.dt},
+          {"seed", scene.seed},
+          {"equilibration_steps", scene.equilibration_steps},
+          {"steps", scene.steps},
+          {"steps_done", steps_done},
+          {"simulated_time", sim.time()},
+          {"production_time", production_time},
+          {"method", scene.method == kExact ? "exact" : "midpoint"}};
+}
 
-nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &st,
-                           const RunOutcome &outcome, const Placement &placement,
-                           const HardwareCounters &counters) {
-  Communicator &comm = sim.comm();
+// The observables, and the work of the steps that gave them.
+nlohmann::json results_json(const Scene &scene, Simulation &sim, const RunState &st,
+                            long long steps_done, double production_time, double drift) {
   const double n = static_cast<double>(scene.n);
-  const long long steps_done = sim.current_step();
-  const double production_time =
-      static_cast<double>(std::max<long long>(0, steps_done - scene.equilibration_steps)) *
-      scene.dt;
-  const double particle_steps = n * static_cast<double>(steps_done - outcome.first_step);
-  const double wall = outcome.wall_seconds;
-  const double drift = energy_drift(scene, sim, st);
+  const auto per_step = [&](long long count) {
+    return steps_done ? static_cast<double>(count) / steps_done : 0.0;
+  };
   const EquilibrationCheck s_eq = check_equilibration(st.s_series);
   const EquilibrationCheck p_eq = check_equilibration(st.p_series);
-  const std::string status = !outcome.failure.empty()      ? "failed"
-                             : !outcome.stopped_by.empty() ? "interrupted"
-                                                           : "completed";
-  nlohmann::json summary = {
-      {"status", status},
-      {"shape", scene.shape_name},
-      {"n", scene.n},
-      {"aspect_ratio", scene.shape.length},
-      {"box", {scene.box.length.x, scene.box.length.y, scene.box.length.z}},
-      {"reduced_density", scene.reduced_density()},
-      {"packing_fraction", scene.packing_fraction()},
-      {"dt", scene.dt},
-      {"seed", scene.seed},
-      {"equilibration_steps", scene.equilibration_steps},
-      {"steps", scene.steps},
-      {"steps_done", steps_done},
-      {"simulated_time", sim.time()},
-      {"production_time", production_time},
+  return {
       {"pressure_star", estimate_json(block_average(st.p_series))},
       {"order_parameter", estimate_json(block_average(st.s_series))},
       {"compressibility_factor", estimate_json(block_average(st.z_series))},
@@ -256,17 +251,28 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
       {"collision_rate", production_time > 0 ? 2.0 * static_cast<double>(st.production_collisions) /
                                                    (n * production_time)
                                              : 0.0},
-      {"contacts_per_step", steps_done ? static_cast<double>(st.contacts) / steps_done : 0.0},
+      {"contacts_per_step", per_step(st.contacts)},
       {"multi_contact_bodies", st.multi_bodies},
       {"multi_contact_clusters", st.clusters},
       {"solver_iterations_max", st.solver_iterations_max},
       {"solver_unconverged", st.solver_unconverged},
       {"solver_energy_change", st.solver_energy_change.value()},
-      {"narrow_phase_tests_per_step",
-       steps_done ? static_cast<double>(st.narrow_tests) / steps_done : 0.0},
+      {"narrow_phase_tests_per_step", per_step(st.narrow_tests)},
       {"neighbor_list_builds", st.list_builds + sim.neighbor_list().builds},
       {"max_overlap", st.max_depth},
       {"energy_drift", drift},
+  };
+}
+
+// What the run cost and where it ran. balance_json and spanning_json reduce over ranks: every
+// rank calls this.
+nlohmann::json cost_json(const Scene &scene, Simulation &sim, const RunState &st,
+                         const RunOutcome &outcome, const Placement &placement,
+                         long long steps_done) {
+  const double particle_steps =
+      static_cast<double>(scene.n) * static_cast<double>(steps_done - outcome.first_step);
+  const double wall = outcome.wall_seconds;
+  return {
       {"wall_seconds", wall},
       {"setup_seconds", outcome.setup_seconds},
       {"setup_seconds_total", st.setup_seconds + outcome.setup_seconds},
@@ -275,7 +281,7 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
       {"first_step", outcome.first_step},
       {"particle_steps_per_second", wall > 0 ? particle_steps / wall : 0.0},
       {"ns_per_particle_step", particle_steps > 0 ? 1e9 * wall / particle_steps : 0.0},
-      {"ranks", comm.size()},
+      {"ranks", sim.comm().size()},
       {"grid", sim.domain().grid()},
       {"balance", balance_json(sim)},
       {"spanning_clusters", spanning_json(sim)},
@@ -283,8 +289,30 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
       {"topology", placement.topology},
       {"binding", placement.binding},
       {"placement", placement.ranks},
-      {"state_checksum", sim.state_checksum()},
   };
+}
+
+}  // namespace
+
+// The parts that reduce over ranks come in the same order on every rank: the energy drift, the
+// balance and spanning clusters, the checksum, provenance, the timers, the watched share and
+// the traffic.
+nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &st,
+                           const RunOutcome &outcome, const Placement &placement,
+                           const HardwareCounters &counters) {
+  Communicator &comm = sim.comm();
+  const long long steps_done = sim.current_step();
+  const double production_time =
+      static_cast<double>(std::max<long long>(0, steps_done - scene.equilibration_steps)) *
+      scene.dt;
+  const double drift = energy_drift(scene, sim, st);
+  nlohmann::json summary = scene_json(scene, sim, steps_done, production_time);
+  summary["status"] = !outcome.failure.empty()      ? "failed"
+                      : !outcome.stopped_by.empty() ? "interrupted"
+                                                    : "completed";
+  summary.update(results_json(scene, sim, st, steps_done, production_time, drift));
+  summary.update(cost_json(scene, sim, st, outcome, placement, steps_done));
+  summary["state_checksum"] = sim.state_checksum();
   summary.update(provenance_json(agreed_provenance(comm)));
   add_timers(summary, sim);
   {  // the share of detections that went through the watches, over all ranks
@@ -293,7 +321,6 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
     summary["detect_watched_share"] = all > 0 ? static_cast<double>(watched) / all : 0.0;
   }
   if (scene.method == kExact) summary["exact"] = exact_json(sim);
-  summary["method"] = scene.method == kExact ? "exact" : "midpoint";
   summary["hardware_counters"] = counters_json(counters);
   summary["communication_per_rank"] = traffic_json(comm, steps_done - outcome.first_step);
   if (!outcome.failure.empty()) summary["error"] = outcome.failure;
