@@ -368,20 +368,58 @@ void agree_on(Communicator &comm, const std::string &problem) {
     throw CheckpointError(problem.empty() ? "checkpoint failed on rank 0" : problem);
 }
 
-}  // namespace
+// Rank 0's seal of the written file: the file's size and the hash of everything after the user
+// block go into the user block, which HDF5 leaves to us; then the previous checkpoint is kept
+// aside and the new one takes its name, each step synced. Returns the problem ("" if none), the
+// temporary file then removed.
+std::string seal_and_rename(const fs::path &dir, const fs::path &tmp, const fs::path &final_path) {
+  try {
+    std::vector<char> bytes = read_file(tmp);
+    const std::string block = user_block(bytes.size(), content_hash(bytes, kUserBlock));
+    {
+      std::fstream out(tmp, std::ios::in | std::ios::out | std::ios::binary);
+      out.seekp(0);
+      out.write(block.data(), static_cast<std::streamsize>(block.size()));
+      if (!out) throw CheckpointError(fmt::format("{}: cannot seal the user block", tmp.string()));
+    }
+    fsync_path(tmp, false);
+    std::error_code ec;
+    if (fs::exists(final_path)) fs::rename(final_path, dir / kPreviousCheckpointFile, ec);
+    if (ec)
+      throw CheckpointError(fmt::format("{}: cannot keep the previous checkpoint ({})",
+                                        final_path.string(), ec.message()));
+    fs::rename(tmp, final_path, ec);
+    if (ec)
+      throw CheckpointError(fmt::format("{}: cannot rename to {} ({})", tmp.string(),
+                                        final_path.string(), ec.message()));
+    fsync_path(dir, true);
+    return {};
+  } catch (const std::exception &e) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    return e.what();
+  }
+}
 
-void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &owned,
-                      std::size_t count, const Checkpoint &contents) {
-  const fs::path final_path = dir / kCheckpointFile;
-  const fs::path tmp = dir / (std::string(kCheckpointFile) + ".tmp");
-  // Every rank must create the same datasets (or parallel HDF5 deadlocks in H5Fclose):
-  // rank 0's texts are written, so their sizes come from rank 0.
+// The sizes of rank 0's texts (scene, run state, root state), on every rank: every rank must
+// create the same datasets (or parallel HDF5 deadlocks in H5Fclose), and rank 0's are written.
+std::array<hsize_t, 3> text_sizes(Communicator &comm, const Checkpoint &contents) {
   std::array<hsize_t, 3> sizes{};
   const std::array<const std::string *, 3> texts = {&contents.scene_toml, &contents.run_state,
                                                     &contents.root_state};
   for (std::size_t k = 0; k < texts.size(); ++k)
     sizes[k] = static_cast<hsize_t>(
         comm.sum("checkpoint", comm.is_root() ? static_cast<long long>(texts[k]->size()) : 0LL));
+  return sizes;
+}
+
+}  // namespace
+
+void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &owned,
+                      std::size_t count, const Checkpoint &contents) {
+  const fs::path final_path = dir / kCheckpointFile;
+  const fs::path tmp = dir / (std::string(kCheckpointFile) + ".tmp");
+  const std::array<hsize_t, 3> sizes = text_sizes(comm, contents);
   // A full disk is found before anything is written, and named when a write fails; either
   // way no partial checkpoint.h5.tmp stays and the previous checkpoints are untouched.
   const std::uintmax_t needed = checkpoint_bytes(contents.n, sizes);
@@ -407,86 +445,37 @@ void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &
     throw CheckpointError(
         fmt::format("{}: {}", where, full.empty() ? std::string(e.what()) : full));
   }
-  std::string problem;
-  if (comm.is_root()) {
-    try {
-      // Seal: the file's size and the hash of everything after the user block go into the
-      // user block, which HDF5 leaves to us.
-      std::vector<char> bytes = read_file(tmp);
-      const std::string block = user_block(bytes.size(), content_hash(bytes, kUserBlock));
-      {
-        std::fstream out(tmp, std::ios::in | std::ios::out | std::ios::binary);
-        out.seekp(0);
-        out.write(block.data(), static_cast<std::streamsize>(block.size()));
-        if (!out)
-          throw CheckpointError(fmt::format("{}: cannot seal the user block", tmp.string()));
-      }
-      fsync_path(tmp, false);
-      std::error_code ec;
-      if (fs::exists(final_path)) fs::rename(final_path, dir / kPreviousCheckpointFile, ec);
-      if (ec)
-        throw CheckpointError(fmt::format("{}: cannot keep the previous checkpoint ({})",
-                                          final_path.string(), ec.message()));
-      fs::rename(tmp, final_path, ec);
-      if (ec)
-        throw CheckpointError(fmt::format("{}: cannot rename to {} ({})", tmp.string(),
-                                          final_path.string(), ec.message()));
-      fsync_path(dir, true);
-    } catch (const std::exception &e) {
-      problem = e.what();
-      std::error_code ec;
-      fs::remove(tmp, ec);
-    }
-  }
-  agree_on(comm, problem);
+  agree_on(comm, comm.is_root() ? seal_and_rename(dir, tmp, final_path) : std::string());
 }
 
-Checkpoint read_checkpoint(const fs::path &path) {
-  Reader r;
-  r.path = path.string();
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) r.fail("no such checkpoint file");
-  {
-    const std::vector<char> bytes = read_file(path);
-    if (bytes.size() < kUserBlock)
-      r.fail(fmt::format("truncated: {} bytes, not even the {}-byte header", bytes.size(),
-                         kUserBlock));
-    const std::string block(bytes.begin(), bytes.begin() + kUserBlock);
-    unsigned long long size = 0, hash = 0;
-    int version = 0;
-    const std::string magic = std::string(kFormat) + " %d\nbytes %llu\nhash %llx\n";
-    if (std::sscanf(block.c_str(), magic.c_str(), &version, &size, &hash) != 3)
-      r.fail("not a hardrod checkpoint (header line missing or damaged)");
-    if (version != kCheckpointVersion)
-      r.fail(fmt::format("checkpoint version {}, this hardrod reads version {}", version,
-                         kCheckpointVersion));
-    if (size != bytes.size())
-      r.fail(
-          fmt::format("truncated or extended: {} bytes on disk, {} written", bytes.size(), size));
-    const std::uint64_t actual = content_hash(bytes, kUserBlock);
-    if (actual != hash)
-      r.fail(fmt::format("corrupted: content hash {:016x}, written {:016x}", actual, hash));
-  }
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // our messages, not HDF5's error stack
-  Id file(H5Fopen(r.path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (file < 0) r.fail("not a readable HDF5 file");
-  r.file = file;
-  if (r.string_attribute("format") != kFormat)
-    r.fail("attribute format is not \"hardrod checkpoint\"");
-  const long long version = r.llong_attribute("version");
+namespace {
+
+// The user block's seal: the format line, the version, and the size and content hash that
+// seal_and_rename wrote, against the file as it is.
+void check_seal(Reader &r, const fs::path &path) {
+  const std::vector<char> bytes = read_file(path);
+  if (bytes.size() < kUserBlock)
+    r.fail(
+        fmt::format("truncated: {} bytes, not even the {}-byte header", bytes.size(), kUserBlock));
+  const std::string block(bytes.begin(), bytes.begin() + kUserBlock);
+  unsigned long long size = 0, hash = 0;
+  int version = 0;
+  const std::string magic = std::string(kFormat) + " %d\nbytes %llu\nhash %llx\n";
+  if (std::sscanf(block.c_str(), magic.c_str(), &version, &size, &hash) != 3)
+    r.fail("not a hardrod checkpoint (header line missing or damaged)");
   if (version != kCheckpointVersion)
     r.fail(fmt::format("checkpoint version {}, this hardrod reads version {}", version,
                        kCheckpointVersion));
-  Checkpoint c;
-  c.step = r.llong_attribute("step");
-  c.n = r.llong_attribute("n");
-  if (c.step < 0) r.fail(fmt::format("step = {}: must be >= 0", c.step));
-  if (c.n < 1) r.fail(fmt::format("n = {}: must be >= 1", c.n));
-  c.state_checksum = r.string_attribute("state_checksum");
-  c.scene_toml = r.text("scene");
-  c.run_state = r.text("run_state");
-  c.root_state = r.text("root_state");
+  if (size != bytes.size())
+    r.fail(fmt::format("truncated or extended: {} bytes on disk, {} written", bytes.size(), size));
+  const std::uint64_t actual = content_hash(bytes, kUserBlock);
+  if (actual != hash)
+    r.fail(fmt::format("corrupted: content hash {:016x}, written {:016x}", actual, hash));
+}
 
+// The bodies, checked: ids 0..n-1 in order, every number finite, unit axes, and their hash
+// against the checkpoint's state_checksum.
+void read_bodies(Reader &r, Checkpoint &c) {
   const hsize_t n = static_cast<hsize_t>(c.n);
   const auto ids = r.numbers<long long>("bodies/id", H5T_NATIVE_LLONG, {n});
   for (std::size_t k = 0; k < ids.size(); ++k)
@@ -514,6 +503,36 @@ Checkpoint read_checkpoint(const fs::path &path) {
   const std::string actual = fmt::format("{:016x}", body_hash(p));
   if (actual != c.state_checksum)
     r.fail(fmt::format("bodies hash to {}, the checkpoint says {}", actual, c.state_checksum));
+}
+
+}  // namespace
+
+Checkpoint read_checkpoint(const fs::path &path) {
+  Reader r;
+  r.path = path.string();
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) r.fail("no such checkpoint file");
+  check_seal(r, path);
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // our messages, not HDF5's error stack
+  Id file(H5Fopen(r.path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (file < 0) r.fail("not a readable HDF5 file");
+  r.file = file;
+  if (r.string_attribute("format") != kFormat)
+    r.fail("attribute format is not \"hardrod checkpoint\"");
+  const long long version = r.llong_attribute("version");
+  if (version != kCheckpointVersion)
+    r.fail(fmt::format("checkpoint version {}, this hardrod reads version {}", version,
+                       kCheckpointVersion));
+  Checkpoint c;
+  c.step = r.llong_attribute("step");
+  c.n = r.llong_attribute("n");
+  if (c.step < 0) r.fail(fmt::format("step = {}: must be >= 0", c.step));
+  if (c.n < 1) r.fail(fmt::format("n = {}: must be >= 1", c.n));
+  c.state_checksum = r.string_attribute("state_checksum");
+  c.scene_toml = r.text("scene");
+  c.run_state = r.text("run_state");
+  c.root_state = r.text("root_state");
+  read_bodies(r, c);
   return c;
 }
 
