@@ -326,9 +326,8 @@ void write_parameters(hid_t file, const Scene &scene, const Provenance &provenan
   H5Gclose(parameters);
 }
 
-}  // namespace
-
-SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
+// The file opened for reading, or why not (missing, unreadable, not HDF5).
+hid_t open_h5md(const std::string &path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   if (H5Fis_hdf5(path.c_str()) <= 0) {
     const int missing = access(path.c_str(), R_OK) != 0 ? errno : 0;  // say why, if the OS can
@@ -338,38 +337,18 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
   }
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (file < 0) throw std::runtime_error(fmt::format("{}: cannot open", path));
-  struct Closer {
-    hid_t f;
-    ~Closer() { H5Fclose(f); }
-  } closer{file};
-  const std::string position = "/particles/all/position/value", axis = "/particles/all/axis/value";
-  const auto dims = dataset_shape(file, position, path);
-  if (dims.size() != 3 || dims[2] != 3 || dims[1] == 0)
-    throw std::runtime_error(fmt::format("{}: {} must have shape [frames][n][3]", path, position));
-  const auto frames = static_cast<long long>(dims[0]);
-  const long long index = frame < 0 ? frames + frame : frame;
-  if (index < 0 || index >= frames)
-    throw std::runtime_error(
-        fmt::format("{}: frame {} requested, the file has {} frame(s)", path, frame, frames));
-  const auto axis_dims = dataset_shape(file, axis, path);
-  if (axis_dims != dims)
-    throw std::runtime_error(fmt::format("{}: {} and {} differ in shape", path, position, axis));
-  SnapshotFrame out;
-  out.frame = index;
-  out.frames = frames;
-  out.box = read_box(file, path, dims[0], static_cast<hsize_t>(index));
-  if (H5Lexists(file, "/particles/all/position/step", H5P_DEFAULT) > 0) {
-    const auto steps = dataset_shape(file, "/particles/all/position/step", path);
-    if (steps.size() == 1 && steps[0] == dims[0])
-      out.step = read_all<long long>(file, "/particles/all/position/step", H5T_NATIVE_LLONG,
-                                     dims[0], path)[static_cast<std::size_t>(index)];
-  }
+  return file;
+}
+
+// Frame `index`'s positions and axes (rows of shape dims) into p, checked: finite, unit axes.
+void read_bodies(hid_t file, const std::string &path, const std::vector<hsize_t> &dims,
+                 long long index, Particles &p) {
   const auto n = static_cast<std::size_t>(dims[1]);
+  const auto row = static_cast<hsize_t>(index);
   const auto x =
-      read_rows<double>(file, position, H5T_NATIVE_DOUBLE, dims, static_cast<hsize_t>(index), path);
+      read_rows<double>(file, "/particles/all/position/value", H5T_NATIVE_DOUBLE, dims, row, path);
   const auto e =
-      read_rows<double>(file, axis, H5T_NATIVE_DOUBLE, dims, static_cast<hsize_t>(index), path);
-  Particles &p = out.bodies;
+      read_rows<double>(file, "/particles/all/axis/value", H5T_NATIVE_DOUBLE, dims, row, path);
   p.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     p.id[i] = static_cast<std::int64_t>(i);
@@ -386,19 +365,53 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
           fmt::format("{}: frame {}, body {}: axis has length {}, must be a unit vector", path,
                       index, i, length));
   }
-  if (H5Lexists(file, "/particles/all/id", H5P_DEFAULT) > 0 &&
-      H5Lexists(file, "/particles/all/id/value", H5P_DEFAULT) > 0) {
-    const auto id_dims = dataset_shape(file, "/particles/all/id/value", path);
-    if (id_dims == std::vector<hsize_t>{dims[1]}) {
-      const auto ids =
-          read_all<long long>(file, "/particles/all/id/value", H5T_NATIVE_LLONG, dims[1], path);
-      for (std::size_t i = 0; i < n; ++i)
-        if (ids[i] != static_cast<long long>(i))
-          throw std::runtime_error(
-              fmt::format("{}: /particles/all/id/value[{}] = {}: bodies must be in id order 0..n-1",
-                          path, i, ids[i]));
-    }
+}
+
+// Where the file lists ids (/particles/all/id/value, one per body), they must be 0..n-1.
+void check_id_order(hid_t file, const std::string &path, hsize_t n) {
+  if (H5Lexists(file, "/particles/all/id", H5P_DEFAULT) <= 0 ||
+      H5Lexists(file, "/particles/all/id/value", H5P_DEFAULT) <= 0)
+    return;
+  if (dataset_shape(file, "/particles/all/id/value", path) != std::vector<hsize_t>{n}) return;
+  const auto ids = read_all<long long>(file, "/particles/all/id/value", H5T_NATIVE_LLONG, n, path);
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    if (ids[i] != static_cast<long long>(i))
+      throw std::runtime_error(
+          fmt::format("{}: /particles/all/id/value[{}] = {}: bodies must be in id order 0..n-1",
+                      path, i, ids[i]));
+}
+
+}  // namespace
+
+SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
+  const hid_t file = open_h5md(path);
+  struct Closer {
+    hid_t f;
+    ~Closer() { H5Fclose(f); }
+  } closer{file};
+  const std::string position = "/particles/all/position/value", axis = "/particles/all/axis/value";
+  const auto dims = dataset_shape(file, position, path);
+  if (dims.size() != 3 || dims[2] != 3 || dims[1] == 0)
+    throw std::runtime_error(fmt::format("{}: {} must have shape [frames][n][3]", path, position));
+  const auto frames = static_cast<long long>(dims[0]);
+  const long long index = frame < 0 ? frames + frame : frame;
+  if (index < 0 || index >= frames)
+    throw std::runtime_error(
+        fmt::format("{}: frame {} requested, the file has {} frame(s)", path, frame, frames));
+  if (dataset_shape(file, axis, path) != dims)
+    throw std::runtime_error(fmt::format("{}: {} and {} differ in shape", path, position, axis));
+  SnapshotFrame out;
+  out.frame = index;
+  out.frames = frames;
+  out.box = read_box(file, path, dims[0], static_cast<hsize_t>(index));
+  if (H5Lexists(file, "/particles/all/position/step", H5P_DEFAULT) > 0) {
+    const auto steps = dataset_shape(file, "/particles/all/position/step", path);
+    if (steps.size() == 1 && steps[0] == dims[0])
+      out.step = read_all<long long>(file, "/particles/all/position/step", H5T_NATIVE_LLONG,
+                                     dims[0], path)[static_cast<std::size_t>(index)];
   }
+  read_bodies(file, path, dims, index, out.bodies);
+  check_id_order(file, path, dims[1]);
   return out;
 }
 
