@@ -136,32 +136,66 @@ void check_same_system(const std::vector<std::string> &dirs,
           dirs[0], system(summaries[0]), dirs[k], system(summaries[k])));
 }
 
+// Each run directory at most once.
+void check_distinct(const std::vector<std::string> &dirs) {
+  for (size_t a = 0; a < dirs.size(); ++a)
+    for (size_t b = 0; b < a; ++b) {
+      std::error_code ea, eb;
+      if (fs::equivalent(dirs[a], dirs[b], ea) && !ea && !eb)
+        throw std::runtime_error(
+            fmt::format("analyze: {} and {} are the same run directory; each run may be given once",
+                        dirs[b], dirs[a]));
+    }
+}
+
+// Every run's summary.json (with results), and its frank.json where it has one.
+void load_runs(const std::vector<std::string> &dirs, std::vector<nlohmann::json> &summaries,
+               std::vector<FrankAccumulator> &frank) {
+  for (const auto &dir : dirs) {
+    summaries.push_back(read_json(fs::path(dir) / "summary.json"));
+    check_has_results(dir, summaries.back());
+    const fs::path f = fs::path(dir) / "frank.json";
+    if (!fs::exists(f)) continue;
+    try {
+      frank.push_back(load_frank_accumulator(f.string()));
+    } catch (const std::exception &e) {
+      throw std::runtime_error(fmt::format("{}: {}", f.string(), e.what()));
+    }
+  }
+}
+
+// analysis.json in outdir, and the results on the terminal.
+void report(const nlohmann::json &out, const fs::path &outdir, const AnalyzeOptions &options) {
+  fs::create_directories(outdir);
+  {
+    std::ofstream f(outdir / "analysis.json");
+    f << out.dump(2) << "\n";
+  }
+  fmt::print("analysis of {} run(s):\n", options.run_dirs.size());
+  fmt::print("  order parameter S   {}\n", pm(out["order_parameter"]));
+  fmt::print("  pressure P*         {}\n", pm(out["pressure_star"]));
+  if (out.contains("K1")) print_frank(out, options.frank);
+  fmt::print("  written             {}\n", (outdir / "analysis.json").string());
+}
+
+// The figures come from a real plotting library (matplotlib), in a script users can also run
+// by hand; if it fails, the command is printed.
+void plot(const fs::path &outdir, const AnalyzeOptions &options) {
+  std::string cmd = "python3 \"" HARDROD_SOURCE_DIR "/scripts/plot_analysis.py\" --out \"" +
+                    outdir.string() + "\"";
+  for (const auto &d : options.run_dirs) cmd += " \"" + d + "\"";
+  std::fflush(stdout);
+  if (std::system(cmd.c_str()) != 0) fmt::print("  plots: not made (run by hand: {})\n", cmd);
+}
+
 }  // namespace
 
 nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   if (options.run_dirs.empty()) throw std::runtime_error("analyze: no run directory given");
-  for (size_t a = 0; a < options.run_dirs.size(); ++a)
-    for (size_t b = 0; b < a; ++b) {
-      std::error_code ea, eb;
-      if (fs::equivalent(options.run_dirs[a], options.run_dirs[b], ea) && !ea && !eb)
-        throw std::runtime_error(
-            fmt::format("analyze: {} and {} are the same run directory; each run may be given once",
-                        options.run_dirs[b], options.run_dirs[a]));
-    }
+  check_distinct(options.run_dirs);
   std::vector<nlohmann::json> summaries;
   std::vector<FrankAccumulator> frank;
-  for (const auto &dir : options.run_dirs) {
-    summaries.push_back(read_json(fs::path(dir) / "summary.json"));
-    check_has_results(dir, summaries.back());
-    const fs::path f = fs::path(dir) / "frank.json";
-    if (fs::exists(f)) {
-      try {
-        frank.push_back(load_frank_accumulator(f.string()));
-      } catch (const std::exception &e) {
-        throw std::runtime_error(fmt::format("{}: {}", f.string(), e.what()));
-      }
-    }
-  }
+  load_runs(options.run_dirs, summaries, frank);
   check_same_system(options.run_dirs, summaries);
   nlohmann::json out;
   out["runs"] = options.run_dirs.size();
@@ -183,27 +217,8 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   }
   const fs::path outdir = options.output_dir.empty() ? fs::path(options.run_dirs.front())
                                                      : fs::path(options.output_dir);
-  fs::create_directories(outdir);
-  {
-    std::ofstream f(outdir / "analysis.json");
-    f << out.dump(2) << "\n";
-  }
-
-  fmt::print("analysis of {} run(s):\n", options.run_dirs.size());
-  fmt::print("  order parameter S   {}\n", pm(out["order_parameter"]));
-  fmt::print("  pressure P*         {}\n", pm(out["pressure_star"]));
-  if (out.contains("K1")) print_frank(out, options.frank);
-  fmt::print("  written             {}\n", (outdir / "analysis.json").string());
-
-  if (options.plots) {
-    // The figures come from a real plotting library (matplotlib), in a script users can
-    // also run by hand.
-    std::string cmd = "python3 \"" HARDROD_SOURCE_DIR "/scripts/plot_analysis.py\" --out \"" +
-                      outdir.string() + "\"";
-    for (const auto &d : options.run_dirs) cmd += " \"" + d + "\"";
-    std::fflush(stdout);
-    if (std::system(cmd.c_str()) != 0) fmt::print("  plots: not made (run by hand: {})\n", cmd);
-  }
+  report(out, outdir, options);
+  if (options.plots) plot(outdir, options);
   return out;
 }
 
