@@ -353,13 +353,18 @@ FrankAccumulator::FrankAccumulator(const Box &box, long long bodies, int kmax,
   if (!problems.empty()) throw std::invalid_argument("FrankAccumulator:" + problems);
 }
 
-void FrankAccumulator::add_sample(const FourierOrderTensor &qk, const Vec3 &director, double S) {
+namespace {
+
+// What add_sample refuses, as "; "-ended phrases ("" if nothing): another box, body count or
+// kmax than the accumulator's, a director that is not finite and nonzero, S or Qk not finite.
+std::string sample_problems(const FourierOrderTensor &qk, const Box &box, long long bodies,
+                            int kmax, const Vec3 &director, double S) {
   std::string problems;
-  if (qk.box.length.x != box_.length.x || qk.box.length.y != box_.length.y ||
-      qk.box.length.z != box_.length.z)
+  if (qk.box.length.x != box.length.x || qk.box.length.y != box.length.y ||
+      qk.box.length.z != box.length.z)
     problems += " box differs;";
-  if (qk.bodies != bodies_) problems += " body count differs;";
-  if (qk.kmax != kmax_ || qk.size() != qk.sums.size()) problems += " kmax differs;";
+  if (qk.bodies != bodies) problems += " body count differs;";
+  if (qk.kmax != kmax || qk.size() != qk.sums.size()) problems += " kmax differs;";
   const double length = norm(director);
   if (!(std::isfinite(length) && length > 0.0)) problems += " director not finite and nonzero;";
   if (!std::isfinite(S)) problems += " S not finite;";
@@ -368,20 +373,54 @@ void FrankAccumulator::add_sample(const FourierOrderTensor &qk, const Vec3 &dire
     for (const auto &c : mode)
       finite = finite && std::isfinite(c.real()) && std::isfinite(c.imag());
   if (!finite) problems += " Qk not finite;";
-  if (!problems.empty()) throw std::invalid_argument("FrankAccumulator::add_sample:" + problems);
+  return problems;
+}
 
+// The e1 of a k parallel to the director n: the lab axis least aligned with n, projected.
+Vec3 e1_along(const Vec3 &n) {
+  const double an[3] = {std::fabs(n.x), std::fabs(n.y), std::fabs(n.z)};
+  const int least = an[0] <= an[1] ? (an[0] <= an[2] ? 0 : 2) : (an[1] <= an[2] ? 1 : 2);
+  const Vec3 axis = least == 0 ? Vec3{1, 0, 0} : least == 1 ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
+  return (axis - dot(axis, n) * n) * (1.0 / norm(axis - dot(axis, n) * n));
+}
+
+// Mode m in the director frame: k's parts square to n and along it, and |e1 . Qk n|^2,
+// |e2 . Qk n|^2 with e1 along k's square part (e1_parallel when k is along n), e2 = n x e1.
+struct ModeProjection {
+  double k1sq, k3, q13, q23;
+  Vec3 e1, e2;
+};
+ModeProjection project_mode(const FourierOrderTensor &qk, std::size_t m, const Vec3 &n,
+                            const Vec3 &e1_parallel) {
+  ModeProjection out;
+  const Vec3 k = qk.wavevector(m);
+  out.k3 = dot(k, n);
+  const Vec3 k_perp = k - out.k3 * n;
+  out.k1sq = norm2(k_perp);
+  out.e1 = out.k1sq > 1e-24 * norm2(k) ? k_perp * (1.0 / std::sqrt(out.k1sq)) : e1_parallel;
+  out.e2 = cross(n, out.e1);
+  const ComplexTensor3 q = qk.tensor(m);
+  std::complex<double> qn[3];  // Qk n
+  for (std::size_t a = 0; a < 3; ++a)
+    qn[a] = q[3 * a] * n.x + q[3 * a + 1] * n.y + q[3 * a + 2] * n.z;
+  out.q13 = std::norm(out.e1.x * qn[0] + out.e1.y * qn[1] + out.e1.z * qn[2]);
+  out.q23 = std::norm(out.e2.x * qn[0] + out.e2.y * qn[1] + out.e2.z * qn[2]);
+  return out;
+}
+
+}  // namespace
+
+void FrankAccumulator::add_sample(const FourierOrderTensor &qk, const Vec3 &director, double S) {
+  const std::string problems = sample_problems(qk, box_, bodies_, kmax_, director, S);
+  if (!problems.empty()) throw std::invalid_argument("FrankAccumulator::add_sample:" + problems);
   if (blocks_.empty() || blocks_.back().samples >= config_.samples_per_block) {
     if (static_cast<int>(blocks_.size()) >= config_.max_blocks) compact();
     if (blocks_.empty() || blocks_.back().samples >= config_.samples_per_block)
       blocks_.emplace_back();
   }
   FrankBlock &block = blocks_.back();
-  const Vec3 n = director * (1.0 / length);
-  // Fallback e1 for k parallel to n: the lab axis least aligned with n, projected.
-  const double an[3] = {std::fabs(n.x), std::fabs(n.y), std::fabs(n.z)};
-  const int least = an[0] <= an[1] ? (an[0] <= an[2] ? 0 : 2) : (an[1] <= an[2] ? 1 : 2);
-  const Vec3 axis = least == 0 ? Vec3{1, 0, 0} : least == 1 ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
-  const Vec3 e1_parallel = (axis - dot(axis, n) * n) * (1.0 / norm(axis - dot(axis, n) * n));
+  const Vec3 n = director * (1.0 / norm(director));
+  const Vec3 e1_parallel = e1_along(n);
   const std::array<double, 9> M = qk.fourth_moment_matrix(n);
   auto self_part = [&](const Vec3 &u) {  // u M u = sum_i (e_i . u)^2 (e_i . n)^2
     return u.x * (M[0] * u.x + M[1] * u.y + M[2] * u.z) +
@@ -391,27 +430,17 @@ void FrankAccumulator::add_sample(const FourierOrderTensor &qk, const Vec3 &dire
   const double self_scale = 2.25 * qk.scale() * qk.scale();  // (3/2)^2 (V/N)^2
   const double inv_width = 1.0 / config_.bin_width;
   for (std::size_t m = 0; m < qk.size(); ++m) {
-    const Vec3 k = qk.wavevector(m);
-    const double k3 = dot(k, n);
-    const Vec3 k_perp = k - k3 * n;
-    const double k1sq = norm2(k_perp);
-    const Vec3 e1 = k1sq > 1e-24 * norm2(k) ? k_perp * (1.0 / std::sqrt(k1sq)) : e1_parallel;
-    const Vec3 e2 = cross(n, e1);
-    const ComplexTensor3 q = qk.tensor(m);
-    std::complex<double> qn[3];  // Qk n
-    for (std::size_t a = 0; a < 3; ++a)
-      qn[a] = q[3 * a] * n.x + q[3 * a + 1] * n.y + q[3 * a + 2] * n.z;
-    const double q13 = std::norm(e1.x * qn[0] + e1.y * qn[1] + e1.z * qn[2]);
-    const double q23 = std::norm(e2.x * qn[0] + e2.y * qn[1] + e2.z * qn[2]);
+    const ModeProjection pr = project_mode(qk, m, n, e1_parallel);
+    const double k1sq = pr.k1sq, k3sq = pr.k3 * pr.k3;
     const FrankBinKey key{static_cast<int>(std::floor(k1sq * inv_width)),
-                          static_cast<int>(std::floor(k3 * k3 * inv_width))};
+                          static_cast<int>(std::floor(k3sq * inv_width))};
     FrankBin &bin = block.bins[key];
     ++bin.count;
-    const double k3sq = k3 * k3;
     bin.k1sq += k1sq, bin.k3sq += k3sq;
     bin.k1sq_sq += k1sq * k1sq, bin.k1sq_k3sq += k1sq * k3sq, bin.k3sq_sq += k3sq * k3sq;
-    bin.q13 += q13, bin.q13sq += q13 * q13, bin.q23 += q23, bin.q23sq += q23 * q23;
-    bin.self13 += self_scale * self_part(e1), bin.self23 += self_scale * self_part(e2);
+    bin.q13 += pr.q13, bin.q13sq += pr.q13 * pr.q13, bin.q23 += pr.q23,
+        bin.q23sq += pr.q23 * pr.q23;
+    bin.self13 += self_scale * self_part(pr.e1), bin.self23 += self_scale * self_part(pr.e2);
   }
   ++block.samples;
   block.sum_S2 += S * S;
