@@ -81,6 +81,34 @@ struct ExactRound {
     flown.push_back(*f);
     flown.back().body = b;
   }
+  // By component: whether it has a body a join of the last round touched (dirty). The bodies of
+  // such a component lose their results: it is solved again.
+  std::vector<char> take_changed(const ExactComponents &cc) {
+    std::vector<char> changed(cc.count(), 0);
+    for (std::size_t c = 0; c < cc.count(); ++c) {
+      for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k)
+        changed[c] = changed[c] || dirty[cc.bodies[k]];
+      if (changed[c])
+        for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) forget(cc.bodies[k]);
+    }
+    return changed;
+  }
+  // The next round after `found` joins. On two ranks (`incremental`) every rank holding a body
+  // of a changed cluster gets the changed piece (the argument of one exchange), merged with the
+  // earlier pieces. With more, a rank may know a cluster only through pieces forwarded by
+  // others and cannot tell it changed; an earlier piece could even make a changed cluster look
+  // complete: every spanning component (one with a shadow) goes again, and the step's earlier
+  // pieces are dropped. A component of owned bodies changes only by a join of one of its
+  // bodies, which its owner finds: on any number of ranks only those are solved again.
+  void next_round(const std::vector<BodyPair> &found, bool incremental, std::size_t owned) {
+    std::fill(dirty.begin(), dirty.end(), 0);
+    if (!incremental) {
+      pieces = ExactPieces();
+      std::fill(dirty.begin() + static_cast<long>(owned), dirty.end(), 1);
+    }
+    for (const auto &[a, b] : found) dirty[a] = dirty[b] = 1;
+    joins.insert(joins.end(), found.begin(), found.end());
+  }
   // The standing results of the bodies whose velocity changed.
   std::vector<FlownBody> current() const {
     std::vector<FlownBody> out;
@@ -147,13 +175,7 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
   std::vector<double> overrun_scratch;
   for (;;) {
     const ExactComponents cc = components(n, owned_, contacts_, round.joins, shared_);
-    std::vector<char> changed(cc.count(), 0);  // a component with a joined body: solved again
-    for (std::size_t c = 0; c < cc.count(); ++c) {
-      for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k)
-        changed[c] = changed[c] || round.dirty[cc.bodies[k]];
-      if (changed[c])
-        for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) round.forget(cc.bodies[k]);
-    }
+    const std::vector<char> changed = round.take_changed(cc);
     solve_local_components(round, cc, changed);
     solve_spanning_components(round, cc, changed);
     const std::vector<FlownBody> flown = round.current();
@@ -180,20 +202,7 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
     }
     for (const auto &[a, b] : joins)  // each join counted by the owner of its lower-id body
       round.work.regrown += (particles_.id[a] < particles_.id[b] ? a : b) < owned_;
-    // The components the joins changed go again. On two ranks every rank holding a body of a
-    // changed cluster gets the changed piece (the argument of one exchange), merged with the
-    // earlier pieces. With more, a rank may know a cluster only through pieces forwarded by
-    // others and cannot tell it changed; an earlier piece could even make a changed cluster
-    // look complete: every spanning component (one with a shadow) goes again, and the step's
-    // earlier pieces are dropped. A component of owned bodies changes only by a join of one of
-    // its bodies, which its owner finds: on any number of ranks only those are solved again.
-    std::fill(round.dirty.begin(), round.dirty.end(), 0);
-    if (!incremental) {
-      round.pieces = ExactPieces();
-      std::fill(round.dirty.begin() + static_cast<long>(owned_), round.dirty.end(), 1);
-    }
-    for (const auto &[a, b] : joins) round.dirty[a] = round.dirty[b] = 1;
-    round.joins.insert(round.joins.end(), joins.begin(), joins.end());
+    round.next_round(joins, incremental, owned_);  // the components the joins changed go again
   }
 }
 
