@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string_view>
 #include <utility>
@@ -245,27 +246,25 @@ std::optional<std::array<long long, 3>> auto_lattice(long long n, const Box &box
   return best;
 }
 
-void read_lattice(Reader &in, Scene &scene, const Validity &ok) {
-  const toml::node *node = in.find("init", "lattice");
-  const bool automatic = !node || node->value<std::string>() == "auto";
-  const bool geometry_ok = ok.shape && ok.box && ok.axis;
-  if (automatic) {
-    if (!(geometry_ok && ok.n)) return;
-    if (const auto lattice = auto_lattice(scene.n, scene.box, scene.shape, scene.axis)) {
-      scene.lattice = *lattice;
-      return;
-    }
-    const int across = scene.axis == 0 ? 1 : 0;
-    in.add("init.lattice = \"auto\": no lattice nx * ny * nz = " + std::to_string(scene.n) +
-           " fits in the box " + format_short(side(scene.box, 0)) + " x " +
-           format_short(side(scene.box, 1)) + " x " + format_short(side(scene.box, 2)) +
-           " with spacing >= " + needed_name(scene.shape, scene.axis, scene.axis) + " along " +
-           std::string(kAxisNames[scene.axis]) +
-           " and >= " + needed_name(scene.shape, scene.axis, across) +
-           " across; lower the density or change system.n");
+// init.lattice = "auto": the lattice auto_lattice picks, or why none fits.
+void read_auto_lattice(Reader &in, Scene &scene) {
+  if (const auto lattice = auto_lattice(scene.n, scene.box, scene.shape, scene.axis)) {
+    scene.lattice = *lattice;
     return;
   }
-  const auto *array = node->as_array();
+  const int across = scene.axis == 0 ? 1 : 0;
+  in.add("init.lattice = \"auto\": no lattice nx * ny * nz = " + std::to_string(scene.n) +
+         " fits in the box " + format_short(side(scene.box, 0)) + " x " +
+         format_short(side(scene.box, 1)) + " x " + format_short(side(scene.box, 2)) +
+         " with spacing >= " + needed_name(scene.shape, scene.axis, scene.axis) + " along " +
+         std::string(kAxisNames[scene.axis]) +
+         " and >= " + needed_name(scene.shape, scene.axis, across) +
+         " across; lower the density or change system.n");
+}
+
+// init.lattice as three counts >= 1, or nothing (the problem reported).
+std::optional<std::array<long long, 3>> lattice_counts(Reader &in, const toml::node &node) {
+  const auto *array = node.as_array();
   bool parsed = array && array->size() == 3;
   std::array<long long, 3> counts{};
   for (int k = 0; parsed && k < 3; ++k) {
@@ -277,22 +276,36 @@ void read_lattice(Reader &in, Scene &scene, const Validity &ok) {
       !in.check("init", "lattice",
                 std::all_of(counts.begin(), counts.end(), [](long long c) { return c >= 1; }),
                 "counts must be >= 1"))
-    return;
-  scene.lattice = counts;
-  if (ok.n) {
-    long long product = 1;
-    bool overflow = false;
-    for (const long long c : counts)
-      overflow = overflow || __builtin_mul_overflow(product, c, &product);
-    if (!in.check("init", "lattice", !overflow && product == scene.n,
+    return std::nullopt;
+  return counts;
+}
+
+// The counts' product against system.n (without overflow).
+bool lattice_holds_n(Reader &in, const std::array<long long, 3> &counts, long long n) {
+  long long product = 1;
+  bool overflow = false;
+  for (const long long c : counts)
+    overflow = overflow || __builtin_mul_overflow(product, c, &product);
+  return in.check("init", "lattice", !overflow && product == n,
                   "product " + (overflow ? std::string("overflows") : std::to_string(product)) +
-                      " must equal system.n = " + std::to_string(scene.n)))
-      return;
+                      " must equal system.n = " + std::to_string(n));
+}
+
+void read_lattice(Reader &in, Scene &scene, const Validity &ok) {
+  const toml::node *node = in.find("init", "lattice");
+  const bool geometry_ok = ok.shape && ok.box && ok.axis;
+  if (!node || node->value<std::string>() == "auto") {
+    if (geometry_ok && ok.n) read_auto_lattice(in, scene);
+    return;
   }
+  const auto counts = lattice_counts(in, *node);
+  if (!counts) return;
+  scene.lattice = *counts;
+  if (ok.n && !lattice_holds_n(in, *counts, scene.n)) return;
   if (!geometry_ok) return;
   std::vector<std::string> overlaps;
   for (int k = 0; k < 3; ++k) {
-    const double spacing = side(scene.box, k) / static_cast<double>(counts[k]);
+    const double spacing = side(scene.box, k) / static_cast<double>((*counts)[k]);
     if (spacing < needed_spacing(scene.shape, scene.axis, k))
       overlaps.push_back("spacing along " + std::string(kAxisNames[k]) + " is " +
                          format_short(spacing) +
