@@ -130,7 +130,7 @@ std::vector<std::uint32_t> members_of(const Solve &s, std::size_t begin, std::si
   return members;
 }
 
-double kinetic_energy_of(const Solve &s, const std::vector<std::uint32_t> &members) {
+double energy_of_members(const Solve &s, const std::vector<std::uint32_t> &members) {
   double sum = 0.0;
   for (std::uint32_t b : members) sum += kinetic_energy_of(s.p, b, s.mass, s.inertia);
   return sum;
@@ -192,13 +192,13 @@ ResolutionStats resolve_clusters(Particles &p, const Shape &shape, std::vector<C
       clusters += counted;
       double scale = 0.0;
       const std::vector<std::uint32_t> members = members_of(s, begin, end, scale);
-      const double energy_before = counted ? kinetic_energy_of(s, members) : 0.0;
+      const double energy_before = counted ? energy_of_members(s, members) : 0.0;
       const long long it =
           sweep_cluster(s, begin, end, settings.tolerance * std::max(scale, 1e-300));
       if (!counted) continue;
       iterations_max = std::max(iterations_max, it + 1);
       if (it == settings.max_iterations) ++unconverged;
-      my_energy.add(kinetic_energy_of(s, members) - energy_before);
+      my_energy.add(energy_of_members(s, members) - energy_before);
     }
   }
   ResolutionStats stats;
