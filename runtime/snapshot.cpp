@@ -340,15 +340,17 @@ hid_t open_h5md(const std::string &path) {
   return file;
 }
 
+// The datasets of the bodies' positions and axes ([frames][n][3]).
+constexpr const char *kPositionValue = "/particles/all/position/value";
+constexpr const char *kAxisValue = "/particles/all/axis/value";
+
 // Frame `index`'s positions and axes (rows of shape dims) into p, checked: finite, unit axes.
 void read_bodies(hid_t file, const std::string &path, const std::vector<hsize_t> &dims,
                  long long index, Particles &p) {
   const auto n = static_cast<std::size_t>(dims[1]);
   const auto row = static_cast<hsize_t>(index);
-  const auto x =
-      read_rows<double>(file, "/particles/all/position/value", H5T_NATIVE_DOUBLE, dims, row, path);
-  const auto e =
-      read_rows<double>(file, "/particles/all/axis/value", H5T_NATIVE_DOUBLE, dims, row, path);
+  const auto x = read_rows<double>(file, kPositionValue, H5T_NATIVE_DOUBLE, dims, row, path);
+  const auto e = read_rows<double>(file, kAxisValue, H5T_NATIVE_DOUBLE, dims, row, path);
   p.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     p.id[i] = static_cast<std::int64_t>(i);
@@ -389,7 +391,7 @@ SnapshotFrame read_h5md_frame(const std::string &path, long long frame) {
     hid_t f;
     ~Closer() { H5Fclose(f); }
   } closer{file};
-  const std::string position = "/particles/all/position/value", axis = "/particles/all/axis/value";
+  const std::string position = kPositionValue, axis = kAxisValue;
   const auto dims = dataset_shape(file, position, path);
   if (dims.size() != 3 || dims[2] != 3 || dims[1] == 0)
     throw std::runtime_error(fmt::format("{}: {} must have shape [frames][n][3]", path, position));
