@@ -43,6 +43,16 @@ struct Later {
   }
 };
 
+// A candidate as the clusters read it: its bodies (c.i has the lower id), its place in the step's
+// array of candidates (their canonical order), and Contact::apart. 16 bytes beside each other
+// in the cluster's run, where a pointer to the 152-byte Contact cost a scattered read each: the
+// candidates are in id order and the clusters in body order.
+struct Edge {
+  std::uint32_t i = 0, j = 0;
+  std::uint32_t at = 0;
+  bool apart = false;
+};
+
 // What every cluster reads.
 struct Context {
   const Particles &p;
@@ -57,7 +67,7 @@ struct Context {
   bool screened = settings.contact.tolerance < kApartMargin;
 
   // A candidate that needs its first search.
-  bool live(const Contact &c) const { return !(screened && c.apart); }
+  bool live(const Edge &c) const { return !(screened && c.apart); }
 };
 
 // One cluster's event-driven pass from the step's start to its end. One per thread, reused
@@ -69,8 +79,7 @@ class ClusterPass {
   // Cluster `group` of `count` bodies (ascending) and its candidates; its flown bodies are
   // appended to `flown`.
   ExactStats run(std::uint32_t group, const std::uint32_t *bodies, std::size_t count,
-                 const Contact *const *candidates, std::size_t ncandidates,
-                 std::vector<FlownBody> &flown) {
+                 const Edge *candidates, std::size_t ncandidates, std::vector<FlownBody> &flown) {
     group_ = group;
     bodies_ = bodies;
     count_ = count;
@@ -87,8 +96,8 @@ class ClusterPass {
                     0.0};
     }
     for (std::size_t k = 0; k < ncandidates; ++k)
-      if (cx_.live(*candidates[k]))
-        predict(slot(candidates[k]->i), slot(candidates[k]->j), 0.0, false);
+      if (cx_.live(candidates[k]))
+        predict(slot(candidates[k].i), slot(candidates[k].j), 0.0, false);
     const long long cap = cx_.settings.events_per_body * static_cast<long long>(count);
     bool fell_back = false;
     while (!queue_.empty()) {
@@ -287,7 +296,7 @@ class ClusterPass {
 struct Partition {
   std::vector<std::uint32_t> bodies;
   std::vector<std::size_t> body_start{0};
-  std::vector<const Contact *> cands;
+  std::vector<Edge> cands;
   std::vector<std::size_t> cand_start{0};
   std::vector<char> alive;
   std::vector<ExactStats> stats;
@@ -322,14 +331,17 @@ struct Partition {
     for (std::size_t g = 0; g < groups; ++g) cand_start[g + 1] += cand_start[g];
     cands.resize(candidates.size());
     at.assign(cand_start.begin(), cand_start.end() - 1);
-    for (const Contact &c : candidates) cands[at[group_of[c.i]]++] = &c;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+      const Contact &c = candidates[k];
+      cands[at[group_of[c.i]]++] = {c.i, c.j, static_cast<std::uint32_t>(k), c.apart};
+    }
     alive.assign(groups, 1);
     stats.assign(groups, {});
     flown.resize(groups);
   }
   // Appends the clusters of `members` (sorted by (root, body)) with their candidates.
   void add(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &members,
-           const std::vector<std::pair<std::uint32_t, const Contact *>> &candidates,
+           const std::vector<std::pair<std::uint32_t, Edge>> &candidates,
            std::vector<std::uint32_t> &group_of) {
     std::size_t c = 0;
     for (std::size_t k = 0; k < members.size();) {
@@ -358,8 +370,8 @@ Partition &step_partition() {
   return pt;
 }
 
-// Below this many clusters a step solves them on one thread: a parallel region costs more
-// than a few small clusters.
+// Below this many eventful clusters a step solves them on one thread: a parallel region costs
+// more than a few small clusters.
 constexpr long kParallelClusters = 32;
 // Below this many clusters, their overrun check (reaches) runs on one thread: everyday nematic
 // (N = 2304, ~240 clusters a step) slower on two threads than on one; the paper scene (N =
@@ -367,35 +379,48 @@ constexpr long kParallelClusters = 32;
 constexpr long kParallelChecks = 1024;
 
 // The state of cluster g's bodies asked from memory ahead of its pass: each body's twelve
-// fields live in twelve arrays, so a cluster's first reads are a dozen cache misses per body.
+// fields, its id and its growth live in fourteen arrays, so a cluster's first reads are a dozen
+// cache misses per body.
 void prefetch_bodies(const Particles &p, const Partition &pt, std::size_t g) {
   for (std::size_t k = pt.body_start[g]; k < pt.body_start[g + 1]; ++k) {
     const std::uint32_t b = pt.bodies[k];
     for (BodyField f : kStateFields) __builtin_prefetch(&(p.*f)[b]);
     __builtin_prefetch(&p.id[b]);
+    __builtin_prefetch(&p.grow[b]);
   }
 }
+
+// How many eventful clusters ahead their bodies are asked for: most clusters of a step are not
+// eventful (hard spheres at packing fraction 0.45: ~950 of ~3900), and a pass over a small one
+// takes about a miss's time.
+constexpr long kPrefetchClusters = 4;
 
 // True when cluster g has a candidate to search: else nothing happens in it in the step.
 bool eventful(const Context &cx, const Partition &pt, std::size_t g) {
   for (std::size_t k = pt.cand_start[g]; k < pt.cand_start[g + 1]; ++k)
-    if (cx.live(*pt.cands[k])) return true;
+    if (cx.live(pt.cands[k])) return true;
   return false;
 }
 
-// Solves clusters [from, partition.count()), threads taking whole clusters.
+// Solves clusters [from, partition.count()), threads taking whole clusters: the eventful ones
+// run a pass, the others have no flown bodies.
 void solve(const Context &cx, Partition &pt, std::size_t from) {
-  const auto n = static_cast<long>(pt.count() - from);
+  thread_local std::vector<std::uint32_t> eventful_clusters;
+  std::vector<std::uint32_t> &todo = eventful_clusters;  // the team's, through a reference
+  todo.clear();
+  for (std::size_t g = from; g < pt.count(); ++g) {
+    pt.flown[g].clear();
+    pt.stats[g] = {};
+    if (eventful(cx, pt, g)) todo.push_back(static_cast<std::uint32_t>(g));
+  }
+  const auto n = static_cast<long>(todo.size());
 #pragma omp parallel if (n > kParallelClusters)
   {
     ClusterPass pass(cx);
 #pragma omp for schedule(dynamic, 4)
     for (long k = 0; k < n; ++k) {
-      const std::size_t g = from + static_cast<std::size_t>(k);
-      pt.flown[g].clear();
-      pt.stats[g] = {};
-      if (!eventful(cx, pt, g)) continue;
-      if (k + 2 < n) prefetch_bodies(cx.p, pt, g + 2);
+      if (k + kPrefetchClusters < n) prefetch_bodies(cx.p, pt, todo[k + kPrefetchClusters]);
+      const std::size_t g = todo[k];
       pt.stats[g] =
           pass.run(static_cast<std::uint32_t>(g), pt.bodies.data() + pt.body_start[g],
                    pt.body_start[g + 1] - pt.body_start[g], pt.cands.data() + pt.cand_start[g],
@@ -409,28 +434,106 @@ double step_reach(const Particles &p, const std::vector<double> &overrun, std::u
   return 2.0 * p.grow[b] + overrun[b];
 }
 
-// The listed pairs from flown body f (with overrun) to a body of another cluster (or of none,
-// `same(other)` false) that could have touched in the step: first the slack with the real
-// bounds, then the distance at the start against the two bodies' reaches; appended to `out`.
-template <class Same>
-void reaches_from(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
-                  const NeighborList &list, const std::vector<double> &overrun, const FlownBody &f,
-                  Same &&same, std::vector<BodyPair> &out) {
-  for (std::uint32_t q = list.pairs_start[f.body]; q < list.pairs_start[f.body + 1]; ++q) {
-    const std::uint32_t other = list.pair_partner[q];
-    if (same(other)) continue;
-    const ListedPair &pair = list.pairs[list.pair_index[q]];
-    const double moved = p.motion_bound[pair.first] + overrun[pair.first] +
-                         p.motion_bound[pair.second] + overrun[pair.second];
-    if (moved < pair.recheck_at) continue;
+// A flown body with an overrun, and the label of its cluster.
+template <class Label>
+struct Overrunner {
+  std::uint32_t body;
+  Label label;
+};
+
+// The listed pairs from flown bodies (with overrun) to bodies of other clusters (labels differ;
+// bodies of no cluster share a label no flown body has) that could have touched in the step:
+// first the slack
+// with the real bounds, then the distance at the start against the two bodies' reaches;
+// appended to `out`. Every load here is scattered through memory (a miss each at N = 32768:
+// the bodies' pair ranges, partners, labels, the pairs' records, the partners' bounds), so each
+// is asked for ahead of its use, a few bodies or a chunk of pairs before, and they are in
+// flight together instead of one after another.
+template <class Label>
+class OverrunCheck {
+ public:
+  OverrunCheck(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+               const NeighborList &list, const std::vector<double> &overrun, const Label *label,
+               std::vector<BodyPair> &out)
+      : p_(p),
+        box_(box),
+        inverse_(inverse),
+        shape_(shape),
+        list_(list),
+        overrun_(overrun),
+        label_(label),
+        out_(out) {}
+
+  void run(const std::vector<Overrunner<Label>> &bodies) {
+    const std::uint32_t *start = list_.pairs_start.data(), *partner = list_.pair_partner.data();
+    const std::size_t n = bodies.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      if (k + 16 < n) __builtin_prefetch(&start[bodies[k + 16].body]);
+      if (k + 8 < n) {
+        const std::uint32_t q = start[bodies[k + 8].body];
+        __builtin_prefetch(&partner[q]);
+        __builtin_prefetch(&list_.pair_index[q]);
+      }
+      if (k + 4 < n) {
+        const std::uint32_t b = bodies[k + 4].body;
+        for (std::uint32_t q = start[b]; q < start[b + 1]; ++q)
+          __builtin_prefetch(&label_[partner[q]]);
+      }
+      add(bodies[k]);
+    }
+    for (std::size_t k = 0; k < count_; ++k) check(queued_[k]);
+    count_ = 0;
+  }
+
+ private:
+  static constexpr std::size_t kChunk = 32;
+  struct Queued {
+    std::uint32_t body, other, pair;
+  };
+
+  // The pairs of f with a partner in another cluster, queued; their records and the partners'
+  // bounds asked for.
+  void add(const Overrunner<Label> &f) {
+    for (std::uint32_t q = list_.pairs_start[f.body]; q < list_.pairs_start[f.body + 1]; ++q) {
+      const std::uint32_t other = list_.pair_partner[q];
+      if (label_[other] == f.label) continue;
+      const std::uint32_t pair = list_.pair_index[q];
+      __builtin_prefetch(&list_.pairs[pair]);
+      __builtin_prefetch(&p_.motion_bound[other]);
+      __builtin_prefetch(&overrun_[other]);
+      queued_[count_++] = {f.body, other, pair};
+      if (count_ == kChunk) {
+        for (const Queued &at : queued_) check(at);
+        count_ = 0;
+      }
+    }
+  }
+
+  void check(const Queued &at) const {
+    const ListedPair &pair = list_.pairs[at.pair];
+    const double *bound = p_.motion_bound.data();
+    const double moved =
+        bound[pair.first] + overrun_[pair.first] + bound[pair.second] + overrun_[pair.second];
+    if (moved < pair.recheck_at) return;
     Contact c;
     double d = 0.0;
-    const double reach =
-        step_reach(p, overrun, f.body) + step_reach(p, overrun, other) + kDistanceSafetyMargin;
-    if (make_contact(p, box, inverse, shape, f.body, other, c, d, reach))
-      out.emplace_back(f.body, other);
+    const double reach = step_reach(p_, overrun_, at.body) + step_reach(p_, overrun_, at.other) +
+                         kDistanceSafetyMargin;
+    if (make_contact(p_, box_, inverse_, shape_, at.body, at.other, c, d, reach))
+      out_.emplace_back(at.body, at.other);
   }
-}
+
+  const Particles &p_;
+  const Box &box_;
+  const Vec3 &inverse_;
+  const Shape &shape_;
+  const NeighborList &list_;
+  const std::vector<double> &overrun_;
+  const Label *label_;
+  std::vector<BodyPair> &out_;
+  Queued queued_[kChunk];
+  std::size_t count_ = 0;
+};
 
 // Each pair once, the lower index first.
 void distinct_pairs(std::vector<BodyPair> &pairs) {
@@ -456,17 +559,18 @@ std::vector<BodyPair> reaches(const Context &cx, const Partition &pt,
   for (std::vector<BodyPair> &f : shared) f.clear();
 #pragma omp parallel if (n > kParallelChecks)
   {
-    std::vector<BodyPair> &mine = shared[static_cast<std::size_t>(omp_get_thread_num())];
-#pragma omp for schedule(dynamic, 16)
+    std::vector<Overrunner<std::uint32_t>> mine;
+#pragma omp for schedule(dynamic, 16) nowait
     for (long k = 0; k < n; ++k) {
-      const std::size_t g = from + static_cast<std::size_t>(k);
+      const auto g = static_cast<std::uint32_t>(from + static_cast<std::size_t>(k));
       if (!pt.alive[g]) continue;
       for (const FlownBody &f : pt.flown[g])
-        if (f.overrun > 0.0)
-          reaches_from(
-              cx.p, cx.box, cx.inverse, cx.shape, cx.list, overrun, f,
-              [&](std::uint32_t other) { return cx.group_of[other] == g; }, mine);
+        if (f.overrun > 0.0) mine.push_back({f.body, g});
     }
+    OverrunCheck<std::uint32_t>(cx.p, cx.box, cx.inverse, cx.shape, cx.list, overrun,
+                                cx.group_of.data(),
+                                shared[static_cast<std::size_t>(omp_get_thread_num())])
+        .run(mine);
   }
   std::vector<BodyPair> out;
   for (const std::vector<BodyPair> &f : shared) out.insert(out.end(), f.begin(), f.end());
@@ -478,7 +582,7 @@ std::vector<BodyPair> reaches(const Context &cx, const Partition &pt,
 // marked) for solving; bodies of no cluster come in.
 void regroup(const std::vector<BodyPair> &joins, ExactScratch &scratch, Partition &pt) {
   std::vector<std::uint32_t> touched;  // bodies whose cluster is joined
-  std::vector<const Contact *> taken;  // their candidates (a body that comes in has none)
+  std::vector<Edge> taken;             // their candidates (a body that comes in has none)
   const auto take = [&](std::uint32_t b) {
     if (scratch.parent[b] == kNone) {
       scratch.parent[b] = b;
@@ -501,13 +605,12 @@ void regroup(const std::vector<BodyPair> &joins, ExactScratch &scratch, Partitio
   std::vector<std::pair<std::uint32_t, std::uint32_t>> members;
   for (const std::uint32_t b : touched) members.emplace_back(set_root(scratch.parent, b), b);
   std::sort(members.begin(), members.end());
-  // By new cluster, and within one in the candidates' canonical order: they all point into the
+  // By new cluster, and within one in the candidates' canonical order: their places in the
   // step's one array of candidates, which is in that order.
-  std::vector<std::pair<std::uint32_t, const Contact *>> cands;
-  for (const Contact *c : taken) cands.emplace_back(set_root(scratch.parent, c->i), c);
+  std::vector<std::pair<std::uint32_t, Edge>> cands;
+  for (const Edge &c : taken) cands.emplace_back(set_root(scratch.parent, c.i), c);
   std::sort(cands.begin(), cands.end(), [](const auto &x, const auto &y) {
-    return x.first != y.first ? x.first < y.first
-                              : std::less<const Contact *>()(x.second, y.second);
+    return x.first != y.first ? x.first < y.first : x.second.at < y.second.at;
   });
   pt.add(members, cands, scratch.label);
 }
@@ -623,11 +726,11 @@ std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const 
   overrun.resize(std::max(overrun.size(), list.active), 0.0);
   for (const FlownBody &f : flown) overrun[f.body] = f.overrun;
   const Vec3 inverse = box.inverse_length();
+  std::vector<Overrunner<std::int64_t>> bodies;
   for (const FlownBody &f : flown)
-    if (f.overrun > 0.0)
-      reaches_from(
-          p, box, inverse, shape, list, overrun, f,
-          [&](std::uint32_t other) { return cluster[other] == cluster[f.body]; }, out);
+    if (f.overrun > 0.0) bodies.push_back({f.body, cluster[f.body]});
+  OverrunCheck<std::int64_t>(p, box, inverse, shape, list, overrun, cluster.data(), out)
+      .run(bodies);
   for (const FlownBody &f : flown) overrun[f.body] = 0.0;
   distinct_pairs(out);
   return out;
