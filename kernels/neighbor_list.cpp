@@ -244,6 +244,29 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   return start[c + 1] - start[c];
 }
 
+// Listed branch-free from keep[from, ncand) into w.near, but eight at a time past the blocks
+// where none is kept. Returns how many are kept.
+std::uint32_t list_kept(CellScratch &w, std::uint32_t from) {
+  const std::size_t ncand = w.cand.size();
+  const std::uint64_t *__restrict k = w.keep.data();
+  std::uint32_t *__restrict near = w.near.data();
+  const std::uint32_t *__restrict cand = w.cand.data();
+  std::size_t kept = 0, q = from;
+  for (; q + 8 <= ncand; q += 8) {
+    const std::uint64_t *__restrict b = k + q;
+    if ((b[0] | b[1] | b[2] | b[3] | b[4] | b[5] | b[6] | b[7]) == 0) continue;
+    for (std::size_t t = 0; t < 8; ++t) {
+      near[kept] = cand[q + t];
+      kept += b[t];
+    }
+  }
+  for (; q < ncand; ++q) {
+    near[kept] = cand[q];
+    kept += k[q];
+  }
+  return static_cast<std::uint32_t>(kept);
+}
+
 // Rods with unique images: the centre test and the side-by-side bound (|r_perp| - h |e_j . n|
 // against the reach) of candidate a against every later candidate at once: a vector loop
 // writes which are kept, then they are listed in w.near. In a nematic about one candidate in
@@ -271,39 +294,26 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
     const bool apart = (lower > 0.0) & (lower * lower > loose_reach2 * rp2);
     k[q] = (dx * dx + dy * dy + dz * dz < gather_reach2) & !apart;
   }
-  // Listed branch-free, but eight at a time past the blocks where none is kept (in the
-  // nematic 12 blocks in 13: one candidate in ~65 is kept).
-  std::uint32_t *__restrict near = w.near.data();
-  const std::uint32_t *__restrict cand = w.cand.data();
-  std::size_t kept = 0, q = a + 1;
-  for (; q + 8 <= ncand; q += 8) {
-    const std::uint64_t *__restrict b = k + q;
-    if ((b[0] | b[1] | b[2] | b[3] | b[4] | b[5] | b[6] | b[7]) == 0) continue;
-    for (std::size_t t = 0; t < 8; ++t) {
-      near[kept] = cand[q + t];
-      kept += b[t];
-    }
-  }
-  for (; q < ncand; ++q) {
-    near[kept] = cand[q];
-    kept += k[q];
-  }
-  return static_cast<std::uint32_t>(kept);
+  // In the nematic 12 blocks of eight in 13 keep none: one candidate in ~65 is kept.
+  return list_kept(w, a + 1);
 }
 
-// Spheres with unique images: the centre test alone. Branch-free: about one candidate in
-// five is kept, which a branch mispredicts.
+// Spheres with unique images: the centre test alone, in vector lanes (a dense fluid keeps about
+// one candidate in five).
 std::uint32_t preselect_centres(const PairSearch &s, CellScratch &w, std::uint32_t a) {
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
   const double gather_reach2 = s.gather_reach2;
   const double xi = w.cx[a], yi = w.cy[a], zi = w.cz[a];
-  std::uint32_t kept = 0;
+  if (w.keep.size() < ncand) w.keep.resize(ncand);
+  std::uint64_t *__restrict k = w.keep.data();
+  const double *__restrict qx = w.cx.data(), *__restrict qy = w.cy.data(),
+                           *__restrict qz = w.cz.data();
+#pragma omp simd
   for (std::uint32_t q = a + 1; q < ncand; ++q) {
-    const double dx = w.cx[q] - xi, dy = w.cy[q] - yi, dz = w.cz[q] - zi;
-    w.near[kept] = w.cand[q];
-    kept += dx * dx + dy * dy + dz * dz < gather_reach2;
+    const double dx = qx[q] - xi, dy = qy[q] - yi, dz = qz[q] - zi;
+    k[q] = dx * dx + dy * dy + dz * dz < gather_reach2;
   }
-  return kept;
+  return list_kept(w, a + 1);
 }
 
 // The exact tests of body i against the kept candidates near[0, kept): each pair whose
@@ -385,10 +395,15 @@ void search_cell(const PairSearch &s, int c, CellScratch &w, std::vector<ListedP
 // its own pairs too, and the bodies' motion bounds stay in its cache instead of moving between
 // cores every step (with interleaved blocks, two threads detected no faster than one).
 void find_pairs(const PairSearch &s, std::vector<ListedPair> &pairs) {
-  std::vector<std::vector<ListedPair>> found(omp_get_max_threads());
+  // The threads' pairs, their storage kept from build to build (grown from nothing, a list of
+  // 10^5 pairs was copied over a dozen times), reached by the team through a reference.
+  thread_local std::vector<std::vector<ListedPair>> storage;
+  std::vector<std::vector<ListedPair>> &found = storage;
+  found.resize(static_cast<std::size_t>(omp_get_max_threads()));
 #pragma omp parallel
   {
     std::vector<ListedPair> &mine = found[omp_get_thread_num()];
+    mine.clear();
     CellScratch scratch;
 #pragma omp for schedule(static)
     for (int c = 0; c < s.cl.cell_count(); ++c) {
