@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 #include <utility>
 
 #include "kernels/contact_time.hpp"
@@ -24,8 +25,9 @@ std::pair<std::uint32_t, std::uint32_t> canonical_pair(const Particles &p, std::
   return p.id[a] < p.id[b] ? std::pair{a, b} : std::pair{b, a};
 }
 
-// A contact's bodies and ids, i first (canonical_pair).
-void name_bodies(const Particles &p, std::uint32_t i, std::uint32_t j, Contact &c) {
+// A contact's (or candidate's) bodies and ids, i first (canonical_pair).
+template <class C>
+void name_bodies(const Particles &p, std::uint32_t i, std::uint32_t j, C &c) {
   c.i = i;
   c.j = j;
   c.id_i = p.id[i];
@@ -150,7 +152,7 @@ void screen_candidates(const Particles &p, double h, double D, double dt, std::s
 // The exact method's candidate k of a batch (StepAhead, contact_detection.hpp), filled with
 // what the clusters read (ids, depth, `apart`). Spheres have no axes, spins or closest points.
 void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &batch, std::size_t k,
-                     double dt, Contact &c) {
+                     double dt, Candidate &c) {
   const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
   const double h = shape.half_length();
   name_bodies(p, i, j, c);
@@ -174,14 +176,15 @@ void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &bat
 
 // The due pairs pairs[due[0, n)] measured a batch at a time (due_distances), and each pair's
 // slack renewed from its distance (bodies at motion bounds summing to `moved`). Those within
-// reach become contacts. With `ahead` (the exact method, see contact_detection.hpp) the
-// bounds already hold the step's whole flight while the bodies are still at its start: a
-// candidate is a pair whose gap is below the two flights, screened (screen_candidates,
-// exact_candidate), and the slack is renewed for the start. Without, a contact is an overlap
-// (rare), measured again by make_contact.
+// reach become contacts. With `ahead` (the exact method's Candidates, see
+// contact_detection.hpp) the bounds already hold the step's whole flight while the bodies are
+// still at its start: a candidate is a pair whose gap is below the two flights, screened
+// (screen_candidates, exact_candidate), and the slack is renewed for the start. Without (the
+// midpoint method's Contacts), a contact is an overlap (rare), measured again by make_contact.
+template <class Found>
 void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
                  NeighborList &list, const std::uint32_t *due, std::size_t n,
-                 const StepAhead *ahead, std::vector<Contact> &found, double &max_depth) {
+                 const StepAhead *ahead, std::vector<Found> &found, double &max_depth) {
   const double *bound = p.motion_bound.data();
   const double h = shape.half_length(), D = shape.diameter;
   thread_local DueBatch batch;
@@ -202,8 +205,8 @@ void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const 
     }
     if (ahead && h > 0.0) screen_candidates(p, h, D, ahead->dt, candidates, batch);
     for (std::size_t k = 0; k < candidates; ++k) {
-      Contact &c = found.emplace_back();
-      if (ahead) {
+      Found &c = found.emplace_back();
+      if constexpr (std::is_same_v<Found, Candidate>) {
         exact_candidate(p, shape, batch, k, ahead->dt, c);
       } else {
         const std::uint32_t q = batch.candidate[k];
@@ -271,13 +274,14 @@ void radix_sort(std::vector<ContactKey> &keys, std::vector<ContactKey> &other, O
   }
 }
 
-// The threads' contacts in canonical order, gathered once: a Contact is 152 bytes, and the
-// exact method's candidates run to thousands per step. The order (id_i, id_j) is that of one
-// integer, id_i (max_id + 1) + id_j: sorted by radix from kRadixContacts contacts (a few
-// hundred a step in the nematic: the comparison sort's mispredicted branches cost more), by
+// The threads' contacts (or candidates) in canonical order, gathered once: a Contact is 152
+// bytes, and the exact method's candidates run to thousands per step. The order (id_i, id_j) is
+// that of one integer, id_i (max_id + 1) + id_j: sorted by radix from kRadixContacts contacts (a
+// few hundred a step in the nematic: the comparison sort's mispredicted branches cost more), by
 // comparison below; ids outside [0, 2^31) take the comparison of the pairs.
 constexpr std::size_t kRadixContacts = 64;
-void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact> &contacts) {
+template <class Found>
+void merge_sorted(std::vector<std::vector<Found>> &found, std::vector<Found> &contacts) {
   constexpr std::int64_t kLargestId = std::int64_t{1} << 31;
   thread_local std::vector<ContactKey> keys, other;
   keys.clear();
@@ -285,7 +289,7 @@ void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact>
   bool fits = true;
   for (std::uint32_t t = 0; t < found.size(); ++t)
     for (std::uint32_t k = 0; k < found[t].size(); ++k) {
-      const Contact &c = found[t][k];
+      const Found &c = found[t][k];
       fits = fits && c.id_i >= 0 && c.id_j >= 0 && c.id_i < kLargestId && c.id_j < kLargestId;
       span = std::max(span, static_cast<std::uint64_t>(c.id_j) + 1);
       keys.push_back(
@@ -308,7 +312,8 @@ void merge_sorted(std::vector<std::vector<Contact>> &found, std::vector<Contact>
 
 }  // namespace
 
-WatchedDetection::WatchedDetection(int threads)
+template <class Found>
+WatchedTeam<Found>::WatchedTeam(int threads)
     : found(static_cast<std::size_t>(threads)),
       due(static_cast<std::size_t>(threads)),
       ends(static_cast<std::size_t>(threads)),
@@ -365,15 +370,22 @@ void split_slacks(NeighborList &list, const double *bound, const std::uint8_t *f
 
 }  // namespace
 
-void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
-                            NeighborList &list, WatchedDetection &shared, const StepAhead *ahead) {
+template struct WatchedTeam<Contact>;
+template struct WatchedTeam<Candidate>;
+
+namespace {
+
+// detect_watched_in_team, for contacts (ahead null) or candidates.
+template <class Found>
+void watched_in_team(const Particles &p, const Box &box, const Shape &shape, NeighborList &list,
+                     WatchedTeam<Found> &shared, const StepAhead *ahead) {
   const long n = static_cast<long>(list.active);
   const double *bound = p.motion_bound.data();
   std::uint8_t *flagged = list.flagged.data();  // n + 8 long (arm_watches)
   const int tid = omp_get_thread_num();
   const int team = omp_get_num_threads();
   const auto [lo, hi] = team_block(n, tid, team);
-  std::vector<Contact> &mine = shared.found[tid];
+  std::vector<Found> &mine = shared.found[tid];
   mine.clear();
   std::vector<std::uint32_t> raised;  // this block's flagged bodies
   double max_depth = 0.0;
@@ -401,12 +413,18 @@ void detect_watched_in_team(const Particles &p, const Box &box, const Shape &sha
   shared.depth[tid] = max_depth;
 }
 
-DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
-                                        NeighborList &list, WatchedDetection &shared,
-                                        std::vector<Contact> &contacts, const StepAhead *ahead) {
+template <class Found>
+DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape, NeighborList &list,
+                         std::vector<Found> &contacts, const StepAhead *ahead);
+
+// finish_watched_detection, for contacts (ahead null) or candidates.
+template <class Found>
+DetectionStats finish_watched(const Particles &p, const Box &box, const Shape &shape,
+                              NeighborList &list, WatchedTeam<Found> &shared,
+                              std::vector<Found> &contacts, const StepAhead *ahead) {
   if (!shared.watching) {  // too many flagged: the full pass, now and until the next build
     list.watching = false;
-    return detect_contacts_all_pairs(p, box, shape, list, contacts, ahead);
+    return all_pairs(p, box, shape, list, contacts, ahead);
   }
   DetectionStats out;
   out.watched = true;
@@ -430,29 +448,29 @@ DetectionStats finish_watched_detection(const Particles &p, const Box &box, cons
 // Pairs of two unflagged bodies are not read: their bounds sum to less than the slack
 // (arm_watches). The pairs measured, and so the slacks, are those of a pass over the
 // whole list (detect_contacts_all_pairs), for any thread count.
-DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
-                               NeighborList &list, std::vector<Contact> &contacts,
-                               const StepAhead *ahead) {
-  if (!list.watching) return detect_contacts_all_pairs(p, box, shape, list, contacts, ahead);
+template <class Found>
+DetectionStats detect(const Particles &p, const Box &box, const Shape &shape, NeighborList &list,
+                      std::vector<Found> &contacts, const StepAhead *ahead) {
+  if (!list.watching) return all_pairs(p, box, shape, list, contacts, ahead);
   // Threaded exactly when the integration is (particles.hpp).
   const int nthreads = team_threads(static_cast<long>(list.active));
-  WatchedDetection shared(nthreads);
+  WatchedTeam<Found> shared(nthreads);
 #pragma omp parallel num_threads(nthreads)
-  detect_watched_in_team(p, box, shape, list, shared, ahead);
-  return finish_watched_detection(p, box, shape, list, shared, contacts, ahead);
+  watched_in_team(p, box, shape, list, shared, ahead);
+  return finish_watched(p, box, shape, list, shared, contacts, ahead);
 }
 
-DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
-                                         NeighborList &list, std::vector<Contact> &contacts,
-                                         const StepAhead *ahead) {
+template <class Found>
+DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape, NeighborList &list,
+                         std::vector<Found> &contacts, const StepAhead *ahead) {
   const int nthreads = omp_get_max_threads();
-  // The threads' contacts, their storage kept from step to step (thousands of 152-byte
-  // contacts a step would otherwise be grown from nothing), reached by the team through a
-  // reference: inside the parallel region a thread_local name is each thread's own.
-  thread_local std::vector<std::vector<Contact>> storage;
-  std::vector<std::vector<Contact>> &found = storage;
+  // The threads' contacts, their storage kept from step to step (thousands of candidates a
+  // step would otherwise be grown from nothing), reached by the team through a reference:
+  // inside the parallel region a thread_local name is each thread's own.
+  thread_local std::vector<std::vector<Found>> storage;
+  std::vector<std::vector<Found>> &found = storage;
   found.resize(static_cast<std::size_t>(nthreads));
-  for (std::vector<Contact> &f : found) f.clear();
+  for (std::vector<Found> &f : found) f.clear();
   long long tests = 0;
   double max_depth = 0.0;
   const std::size_t npairs = list.pair_count();
@@ -481,6 +499,41 @@ DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, con
   }
   merge_sorted(found, contacts);
   return {tests, max_depth};
+}
+
+}  // namespace
+
+void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
+                            NeighborList &list, WatchedDetection &shared) {
+  watched_in_team(p, box, shape, list, shared, nullptr);
+}
+
+DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
+                                        NeighborList &list, WatchedDetection &shared,
+                                        std::vector<Contact> &contacts) {
+  return finish_watched(p, box, shape, list, shared, contacts, nullptr);
+}
+
+DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
+                               NeighborList &list, std::vector<Contact> &contacts) {
+  return detect(p, box, shape, list, contacts, nullptr);
+}
+
+DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
+                               NeighborList &list, std::vector<Candidate> &candidates,
+                               const StepAhead &ahead) {
+  return detect(p, box, shape, list, candidates, &ahead);
+}
+
+DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
+                                         NeighborList &list, std::vector<Contact> &contacts) {
+  return all_pairs(p, box, shape, list, contacts, nullptr);
+}
+
+DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
+                                         NeighborList &list, std::vector<Candidate> &candidates,
+                                         const StepAhead &ahead) {
+  return all_pairs(p, box, shape, list, candidates, &ahead);
 }
 
 }  // namespace hardrod

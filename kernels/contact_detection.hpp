@@ -24,50 +24,55 @@ struct DetectionStats {
   bool watched = false;              // through the watches, not a pass over every pair
 };
 
-// `ahead`, for the exact method (kernels/exact_collisions.hpp): the bodies are at the start of
-// the step, their motion bounds already include the whole step's free flight, and grow[i] is
-// body i's growth per half step (Particles::grow). Then a "contact" is a candidate, a pair
-// that could touch within the step (gap below the two flights, 2 (grow[i] + grow[j])), its
-// depth negative when apart, and slacks are renewed for the start positions. A candidate is
-// marked `apart` when its two free flights alone keep it apart through the step of length dt
-// (apart_in_flight, contact_time.hpp): its first search would find nothing. Only the ids,
-// indices, depth and that mark of a candidate are filled. nullptr: the midpoint method.
+// The midpoint method's contacts: the pairs that overlap.
+DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
+                               NeighborList &list, std::vector<Contact> &contacts);
+
+// The exact method's candidates (kernels/exact_collisions.hpp), with `ahead`: the bodies are at
+// the start of the step, their motion bounds already include the whole step's free flight, and
+// grow[i] is body i's growth per half step (Particles::grow). A candidate is a pair that could
+// touch within the step (gap below the two flights, 2 (grow[i] + grow[j])), its depth negative
+// when apart, and slacks are renewed for the start positions. A candidate is marked `apart`
+// when its two free flights alone keep it apart through the step of length dt
+// (apart_in_flight, contact_time.hpp): its first search would find nothing.
 struct StepAhead {
   const double *grow = nullptr;
   double dt = 0.0;
 };
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
-                               NeighborList &list, std::vector<Contact> &contacts,
-                               const StepAhead *ahead = nullptr);
+                               NeighborList &list, std::vector<Candidate> &candidates,
+                               const StepAhead &ahead);
 
 // The watched detection's parts, for a team of threads that has other work in the same
 // parallel region (advance_to_midpoint, free_flight.hpp): every thread of the team calls
 // detect_watched_in_team (it has barriers), then one thread calls finish_watched_detection,
 // which merges the contacts (or, when too many bodies were flagged, switches the list to the
-// full pass and runs it).
-struct WatchedDetection {
-  explicit WatchedDetection(int threads);
-  std::vector<std::vector<Contact>> found;
+// full pass and runs it). `Found` is Contact, or Candidate for the exact method's detection.
+template <class Found>
+struct WatchedTeam {
+  explicit WatchedTeam(int threads);
+  std::vector<std::vector<Found>> found;
   std::vector<std::vector<std::uint32_t>> due;  // each thread's pairs to measure
   std::vector<long> ends;
   std::vector<long long> tests;
   std::vector<double> depth;
   bool watching = true;
 };
+using WatchedDetection = WatchedTeam<Contact>;
 void detect_watched_in_team(const Particles &p, const Box &box, const Shape &shape,
-                            NeighborList &list, WatchedDetection &shared,
-                            const StepAhead *ahead = nullptr);
+                            NeighborList &list, WatchedDetection &shared);
 DetectionStats finish_watched_detection(const Particles &p, const Box &box, const Shape &shape,
                                         NeighborList &list, WatchedDetection &shared,
-                                        std::vector<Contact> &contacts,
-                                        const StepAhead *ahead = nullptr);
+                                        std::vector<Contact> &contacts);
 
 // The reference: the same filter as a pass over every listed pair (how the watches must
 // behave, and what they save). It renews slacks but not allowances: a list it has used is
 // not fit for detect_contacts until arm_watches.
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
-                                         NeighborList &list, std::vector<Contact> &contacts,
-                                         const StepAhead *ahead = nullptr);
+                                         NeighborList &list, std::vector<Contact> &contacts);
+DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
+                                         NeighborList &list, std::vector<Candidate> &candidates,
+                                         const StepAhead &ahead);
 
 // A contact's normal, lever arms and inverse effective mass (Contact, contact.hpp) from the
 // closest points `sc` of axes e_i, e_j at separation r_ij = x_j - x_i: shared by the midpoint

@@ -45,8 +45,8 @@ struct Later {
 
 // A candidate as the clusters read it: its bodies (c.i has the lower id), its place in the step's
 // array of candidates (their canonical order), and whether it needs its first search (`live`:
-// not proven apart, Contact::apart, or the proof is not trusted, see Partition::first). 16
-// bytes beside each other in the cluster's run, where a pointer to the 152-byte Contact cost a
+// not proven apart, Candidate::apart, or the proof is not trusted, see Partition::first). 16
+// bytes beside each other in the cluster's run, where a pointer to the 40-byte Candidate cost a
 // scattered read each: the candidates are in id order and the clusters in body order.
 struct Edge {
   std::uint32_t i = 0, j = 0;
@@ -66,7 +66,7 @@ struct Context {
   const ExactSettings &settings;
 };
 
-// Contact::apart holds: the detection's margin is above the search's tolerance.
+// Candidate::apart holds: the detection's margin is above the search's tolerance.
 bool screened(const ExactSettings &settings) { return settings.contact.tolerance < kApartMargin; }
 
 // One cluster's event-driven pass from the step's start to its end. One per thread, reused
@@ -310,7 +310,7 @@ struct Partition {
   // (ascending: a root is its set's smallest index, so it comes before its set's other
   // bodies) and one over the candidates. `screened`: a candidate proven apart is not live.
   void first(std::vector<std::uint32_t> &parent, const std::vector<std::uint32_t> &involved,
-             const std::vector<Contact> &candidates, bool screened,
+             const std::vector<Candidate> &candidates, bool screened,
              std::vector<std::uint32_t> &group_of) {
     std::vector<std::size_t> size;
     for (const std::uint32_t b : involved) {
@@ -330,13 +330,13 @@ struct Partition {
     std::vector<std::size_t> at(body_start.begin(), body_start.end() - 1);
     for (const std::uint32_t b : involved) bodies[at[group_of[b]]++] = b;
     cand_start.assign(groups + 1, 0);
-    for (const Contact &c : candidates) ++cand_start[group_of[c.i] + 1];
+    for (const Candidate &c : candidates) ++cand_start[group_of[c.i] + 1];
     for (std::size_t g = 0; g < groups; ++g) cand_start[g + 1] += cand_start[g];
     cands.resize(candidates.size());
     at.assign(cand_start.begin(), cand_start.end() - 1);
     eventful.assign(groups, 0);
     for (std::size_t k = 0; k < candidates.size(); ++k) {
-      const Contact &c = candidates[k];
+      const Candidate &c = candidates[k];
       const std::uint32_t g = group_of[c.i];
       const bool live = !(screened && c.apart);
       cands[at[g]++] = {c.i, c.j, static_cast<std::uint32_t>(k), live};
@@ -618,7 +618,7 @@ void regroup(const std::vector<BodyPair> &joins, ExactScratch &scratch, Partitio
 
 // The clusters of the candidates joined by `joins`: scratch's union-find over the bodies in
 // them, and the partition (`screened`: Partition::first).
-void first_partition(const NeighborList &list, const std::vector<Contact> &candidates,
+void first_partition(const NeighborList &list, const std::vector<Candidate> &candidates,
                      const std::vector<BodyPair> &joins, bool screened, ExactScratch &scratch,
                      Partition &pt) {
   const std::size_t n = list.active;
@@ -633,14 +633,14 @@ void first_partition(const NeighborList &list, const std::vector<Contact> &candi
     scratch.parent[b] = b;
     bits[b / 64] |= std::uint64_t{1} << (b % 64);
   };
-  for (const Contact &c : candidates) take(c.i), take(c.j);
+  for (const Candidate &c : candidates) take(c.i), take(c.j);
   for (const auto &[a, b] : joins) take(a), take(b);
   std::vector<std::uint32_t> &involved = scratch.involved;
   involved.clear();
   for (std::size_t w = 0; w < bits.size(); ++w)
     for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
       involved.push_back(static_cast<std::uint32_t>(64 * w + std::countr_zero(word)));
-  for (const Contact &c : candidates) join_sets(scratch.parent, c.i, c.j);
+  for (const Candidate &c : candidates) join_sets(scratch.parent, c.i, c.j);
   for (const auto &[a, b] : joins) join_sets(scratch.parent, a, b);
   pt.first(scratch.parent, involved, candidates, screened, scratch.label);
 }
@@ -665,15 +665,15 @@ void finish(const Partition &pt, ExactStats &stats, ExactScratch &scratch,
   for (const std::uint32_t b : pt.bodies) scratch.parent[b] = scratch.label[b] = kNone;
 }
 
-long long count_apart(const std::vector<Contact> &candidates) {
+long long count_apart(const std::vector<Candidate> &candidates) {
   return std::count_if(candidates.begin(), candidates.end(),
-                       [](const Contact &c) { return c.apart; });
+                       [](const Candidate &c) { return c.apart; });
 }
 
 }  // namespace
 
 ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
-                           const NeighborList &list, const std::vector<Contact> &candidates,
+                           const NeighborList &list, const std::vector<Candidate> &candidates,
                            double dt, const ExactSettings &settings, ExactScratch &scratch,
                            std::vector<FlownBody> &flown) {
   ExactStats stats;
@@ -705,7 +705,7 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
 }
 
 ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
-                        const NeighborList &list, const std::vector<Contact> &candidates,
+                        const NeighborList &list, const std::vector<Candidate> &candidates,
                         const std::vector<BodyPair> &joins, double dt,
                         const ExactSettings &settings, ExactScratch &scratch,
                         std::vector<FlownBody> &flown) {

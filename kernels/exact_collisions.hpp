@@ -57,7 +57,7 @@ struct ExactSettings {
 // work (events, searches, iterations, grazes) of every pass, including those a join discarded.
 struct ExactStats {
   long long candidates = 0;       // listed pairs that could touch in the step
-  long long apart = 0;            // of those, kept apart by their free flights (Contact::apart)
+  long long apart = 0;            // of those, kept apart by their free flights (Candidate::apart)
   long long clusters = 0;         // clusters of candidates
   long long largest_cluster = 0;  // bodies in the largest
   long long collisions = 0;       // impulses given
@@ -100,7 +100,7 @@ struct ExactScratch {
 };
 
 ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,
-                           const NeighborList &list, const std::vector<Contact> &candidates,
+                           const NeighborList &list, const std::vector<Candidate> &candidates,
                            double dt, const ExactSettings &settings, ExactScratch &scratch,
                            std::vector<FlownBody> &flown);
 
@@ -109,7 +109,7 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
 // overruns that reach other clusters (overrun_reaches does, for the caller). The same bits
 // per cluster as collide_exactly's for the same cluster.
 ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
-                        const NeighborList &list, const std::vector<Contact> &candidates,
+                        const NeighborList &list, const std::vector<Candidate> &candidates,
                         const std::vector<BodyPair> &joins, double dt,
                         const ExactSettings &settings, ExactScratch &scratch,
                         std::vector<FlownBody> &flown);

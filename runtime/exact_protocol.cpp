@@ -212,7 +212,7 @@ void exact_problem(const ExactPieces &r, const ExactClusters &ec, const std::vec
     const std::uint32_t a = work[r.ends[k].first], b = work[r.ends[k].second];
     if (a == kDegreeUnknown) continue;  // a cluster not taken (its edges stay inside it)
     if (e.candidate) {
-      Contact c;
+      Candidate c;
       c.i = a, c.j = b, c.id_i = e.a, c.id_j = e.b;
       c.apart = e.candidate == 2;
       problem.candidates.push_back(c);

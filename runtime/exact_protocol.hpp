@@ -38,8 +38,9 @@ struct ExactPieces {
     double state[kExactState] = {};
   };
   struct Edge {
-    std::int64_t a = 0, b = 0;   // a < b
-    std::int32_t candidate = 0;  // 1: a candidate; 2: one proven apart (Contact::apart); 0: a join
+    std::int64_t a = 0, b = 0;  // a < b
+    std::int32_t candidate =
+        0;  // 1: a candidate; 2: one proven apart (Candidate::apart); 0: a join
   };
   std::vector<Body> bodies;                                   // by id after tidy()
   std::vector<Edge> edges;                                    // by (a, b) after tidy()
@@ -84,7 +85,7 @@ ExactClusters exact_clusters(const ExactPieces &r);
 struct ExactProblem {
   Particles bodies;
   NeighborList list;
-  std::vector<Contact> candidates;
+  std::vector<Candidate> candidates;
   std::vector<BodyPair> joins;
   std::vector<std::uint32_t> piece;
 };

@@ -124,7 +124,8 @@ namespace {
 // component of owned bodies only is whole here (every pair of a body owned here is in this
 // rank's list), even where other ranks hold its bodies (it is *held*): they know none of its
 // edges (their lists keep the pairs with a body they own) and need only its results.
-ExactComponents components(std::size_t n, std::size_t owned, const std::vector<Contact> &candidates,
+ExactComponents components(std::size_t n, std::size_t owned,
+                           const std::vector<Candidate> &candidates,
                            const std::vector<BodyPair> &joins, const std::vector<char> &shared) {
   std::vector<std::uint32_t> parent(n, kNoBody), involved;
   const auto edge = [&](std::uint32_t a, std::uint32_t b) {
@@ -132,7 +133,7 @@ ExactComponents components(std::size_t n, std::size_t owned, const std::vector<C
       if (parent[x] == kNoBody) parent[x] = x, involved.push_back(x);
     join_sets(parent, a, b);
   };
-  for (const Contact &c : candidates) edge(c.i, c.j);
+  for (const Candidate &c : candidates) edge(c.i, c.j);
   for (const auto &[a, b] : joins) edge(a, b);
   ExactComponents cc;
   cc.comp_of.assign(n, kNoSet);
@@ -174,7 +175,7 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
   const bool incremental = comm_.size() == 2 && !results_path();
   std::vector<double> overrun_scratch;
   for (;;) {
-    const ExactComponents cc = components(n, owned_, contacts_, round.joins, shared_);
+    const ExactComponents cc = components(n, owned_, candidates_, round.joins, shared_);
     const std::vector<char> changed = round.take_changed(cc);
     solve_local_components(round, cc, changed);
     solve_spanning_components(round, cc, changed);
@@ -214,8 +215,8 @@ void Simulation::solve_local_components(ExactRound &round, const ExactComponents
                                         const std::vector<char> &changed) {
   std::vector<char> solve(cc.count(), 0);
   for (std::size_t c = 0; c < cc.count(); ++c) solve[c] = changed[c] && !cc.spanning[c];
-  std::vector<Contact> candidates;
-  for (const Contact &ct : contacts_)
+  std::vector<Candidate> candidates;
+  for (const Candidate &ct : candidates_)
     if (solve[cc.comp_of[ct.i]]) candidates.push_back(ct);
   std::vector<BodyPair> joins;
   for (const BodyPair &j : round.joins)
@@ -411,7 +412,7 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
     if (ia > ib) std::swap(ia, ib);
     tagged.push_back({c, {ia, ib, kind}});
   };
-  for (const Contact &ct : contacts_) add_edge(ct.i, ct.j, ct.apart ? 2 : 1);
+  for (const Candidate &ct : candidates_) add_edge(ct.i, ct.j, ct.apart ? 2 : 1);
   for (const auto &[a, b] : round.joins) add_edge(a, b, 0);
   std::vector<std::uint32_t> edges_start(cc.count() + 1, 0);
   for (const auto &t : tagged) ++edges_start[t.first + 1];
@@ -493,7 +494,7 @@ ExactStats Simulation::exact_counts(const ExactRound &round,
     ++s.clusters;
     s.largest_cluster = std::max<long long>(s.largest_cluster, round.size[b]);
   }
-  for (const Contact &c : contacts_) {
+  for (const Candidate &c : candidates_) {
     s.candidates += c.i < owned_;
     s.apart += c.i < owned_ && c.apart;
   }

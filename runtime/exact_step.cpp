@@ -103,7 +103,7 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
     {
       ScopedRegion r(timers_, Region::kDetect);
       const StepAhead ahead{particles_.grow.data(), scene_.dt};
-      detected = detect_contacts(particles_, scene_.box, scene_.shape, list_, contacts_, &ahead);
+      detected = detect_contacts(particles_, scene_.box, scene_.shape, list_, candidates_, ahead);
       note_detection(detected);
     }
     double reach = 0.0;
@@ -112,7 +112,7 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
       if (comm_.size() > 1) {
         stats = collide_on_ranks(reach);
       } else {
-        stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, contacts_, scene_.dt,
+        stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, candidates_, scene_.dt,
                                 exact_settings_, exact_scratch_, flown_);
         for (const FlownBody &f : flown_)
           reach = std::max(reach, particles_.motion_bound[f.body] + f.overrun);

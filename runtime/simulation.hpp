@@ -322,7 +322,8 @@ class Simulation {
   std::vector<char> shared_;  // by local index: a shadow, or an owned body held elsewhere
   NeighborList list_;
   long long detections_ = 0, detections_watched_ = 0;
-  std::vector<Contact> contacts_;
+  std::vector<Contact> contacts_;      // the midpoint method's, each step
+  std::vector<Candidate> candidates_;  // the exact method's, each step
   // Bodies whose velocities a step changed (their motion constants are then due): those
   // resolve_across_ranks set, and the scratch list of all of them.
   std::vector<std::uint32_t> shared_in_, changed_;

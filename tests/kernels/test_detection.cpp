@@ -189,14 +189,14 @@ TEST(Detection, BatchedNarrowPhaseGivesTheScalarBits) {
       for (std::size_t i = 0; i < n; ++i) p.motion_bound[i] = list.skin;  // every pair due
       const std::vector<ListedPair> before = list.pairs;
       const StepAhead ahead{p.grow.data(), dt};
-      std::vector<Contact> candidates;
+      std::vector<Candidate> candidates;
       const DetectionStats stats =
-          detect_contacts_all_pairs(p, box, shape, list, candidates, &ahead);
+          detect_contacts_all_pairs(p, box, shape, list, candidates, ahead);
       ASSERT_EQ(stats.narrow_phase_tests, static_cast<long long>(list.pair_count()));
       ASSERT_GT(list.pair_count(), 600u) << "several batches of 256";
       const double h = shape.half_length(), D = shape.diameter;
-      std::map<std::pair<std::int64_t, std::int64_t>, const Contact *> by_ids;
-      for (const Contact &c : candidates) by_ids[{c.id_i, c.id_j}] = &c;
+      std::map<std::pair<std::int64_t, std::int64_t>, const Candidate *> by_ids;
+      for (const Candidate &c : candidates) by_ids[{c.id_i, c.id_j}] = &c;
       std::size_t found = 0, apart = 0;
       for (std::size_t k = 0; k < list.pair_count(); ++k) {
         const ListedPair &pair = list.pairs[k];

@@ -32,9 +32,9 @@ Step exact_step(Particles &p, const Box &box, const Shape &shape, double dt,
   build_neighbor_list(list, p, p.size(), box, shape);
   refresh_motion(p, p.size(), shape, 0.5 * dt);
   grow_bounds(p, p.size());
-  std::vector<Contact> candidates;
+  std::vector<Candidate> candidates;
   const StepAhead ahead{p.grow.data(), dt};
-  detect_contacts(p, box, shape, list, candidates, &ahead);
+  detect_contacts(p, box, shape, list, candidates, ahead);
   ExactScratch scratch;
   Step s;
   s.stats = collide_exactly(p, box, shape, list, candidates, dt, settings, scratch, s.flown);
@@ -149,7 +149,7 @@ TEST(ExactCollisions, RodsKeepMomentumAngularMomentumAndEnergy) {
 }
 
 // The clusters' labels (the root of a union-find, the smallest index) of candidates and joins.
-std::vector<std::int64_t> labels(std::size_t n, const std::vector<Contact> &candidates,
+std::vector<std::int64_t> labels(std::size_t n, const std::vector<Candidate> &candidates,
                                  const std::vector<BodyPair> &joins) {
   std::vector<std::uint32_t> parent(n);
   std::iota(parent.begin(), parent.end(), 0u);
@@ -162,7 +162,7 @@ std::vector<std::int64_t> labels(std::size_t n, const std::vector<Contact> &cand
     parent[std::max(a, b)] = std::min(a, b);
   };
   std::vector<char> in(n, 0);
-  for (const Contact &c : candidates) join(c.i, c.j), in[c.i] = in[c.j] = 1;
+  for (const Candidate &c : candidates) join(c.i, c.j), in[c.i] = in[c.j] = 1;
   for (const auto &[a, b] : joins) join(a, b), in[a] = in[b] = 1;
   std::vector<std::int64_t> label(n, -1);
   for (std::uint32_t b = 0; b < n; ++b)
@@ -203,9 +203,9 @@ TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
     build_neighbor_list(list, p, p.size(), c.box, sphere);
     refresh_motion(p, p.size(), sphere, 0.5 * c.dt);
     grow_bounds(p, p.size());
-    std::vector<Contact> candidates;
+    std::vector<Candidate> candidates;
     const StepAhead ahead{p.grow.data(), c.dt};
-    detect_contacts(p, c.box, sphere, list, candidates, &ahead);
+    detect_contacts(p, c.box, sphere, list, candidates, ahead);
     ExactScratch scratch;
     std::vector<FlownBody> kernel, rounds;
     const ExactStats whole =
