@@ -69,6 +69,11 @@ struct Context {
 // Candidate::apart holds: the detection's margin is above the search's tolerance.
 bool screened(const ExactSettings &settings) { return settings.contact.tolerance < kApartMargin; }
 
+// Up to this many bodies a sphere cluster predicts a changed body against every other one
+// (predict_pairs_of). Hard spheres at packing fraction 0.45, N = 32768, in turns against the
+// walk: resolve 0.92x at 6, 0.89x at 12, 0.94x at 24 (the searches grow as its square).
+constexpr std::size_t kAllSlots = 12;
+
 // One cluster's event-driven pass from the step's start to its end. One per thread, reused
 // from cluster to cluster so that a cluster allocates nothing.
 class ClusterPass {
@@ -212,6 +217,16 @@ class ClusterPass {
   void predict_pairs_of(std::uint32_t s, std::uint32_t skip, double t) {
     if (count_ == 2) {  // the cluster's one edge is its one listed pair: no walk of the list
       if (1 - s != skip) predict(s, 1 - s, t, true);
+      return;
+    }
+    // Spheres in a small cluster: every other slot, listed or not, rather than the walk of s's
+    // partners (a miss on the pair index and one per partner's cluster, where a sphere's search
+    // is a closed form). A pair the list does not hold cannot touch before it expires (the
+    // step is solved again on a new list if an overrun could carry it that far), and a sphere's
+    // search that finds nothing queues nothing, so the events are the same.
+    if (count_ <= kAllSlots && cx_.shape.half_length() == 0.0) {
+      for (std::uint32_t o = 0; o < count_; ++o)
+        if (o != s && o != skip) predict(s, o, t, true);
       return;
     }
     each_partner_in_cluster(bodies_[s], [&](std::uint32_t other) {
