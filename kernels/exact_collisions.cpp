@@ -46,8 +46,8 @@ struct Later {
 // A candidate as the clusters read it: its bodies (c.i has the lower id), its place in the step's
 // array of candidates (their canonical order), and whether it needs its first search (`live`:
 // not proven apart, Candidate::apart, or the proof is not trusted, see Partition::first). 16
-// bytes beside each other in the cluster's run, where a pointer to the 40-byte Candidate cost a
-// scattered read each: the candidates are in id order and the clusters in body order.
+// bytes beside the cluster's other edges: a pointer into the step's candidates would cost a
+// scattered read each, as they are in id order and the clusters in body order.
 struct Edge {
   std::uint32_t i = 0, j = 0;
   std::uint32_t at = 0;
@@ -459,12 +459,11 @@ struct Overrunner {
 
 // The listed pairs from flown bodies (with overrun) to bodies of other clusters (labels differ;
 // bodies of no cluster share a label no flown body has) that could have touched in the step:
-// first the slack
-// with the real bounds, then the distance at the start against the two bodies' reaches;
-// appended to `out`. Every load here is scattered through memory (a miss each at N = 32768:
-// the bodies' pair ranges, partners, labels, the pairs' records, the partners' bounds), so each
-// is asked for ahead of its use, a few bodies or a chunk of pairs before, and they are in
-// flight together instead of one after another.
+// first the slack with the real bounds, then the distance at the start against the two bodies'
+// reaches; appended to `out`. Every load here is scattered through memory (a miss each at
+// N = 32768: the bodies' pair ranges, partners, labels, the pairs' records, the partners'
+// bounds), so each is asked for ahead of its use, a few bodies or a chunk of pairs before, and
+// they are in flight together instead of one after another.
 template <class Label>
 class OverrunCheck {
  public:
