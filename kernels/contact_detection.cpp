@@ -274,11 +274,11 @@ void radix_sort(std::vector<ContactKey> &keys, std::vector<ContactKey> &other, O
   }
 }
 
-// The threads' contacts (or candidates) in canonical order, gathered once: a Contact is 152
-// bytes, and the exact method's candidates run to thousands per step. The order (id_i, id_j) is
-// that of one integer, id_i (max_id + 1) + id_j: sorted by radix from kRadixContacts contacts (a
-// few hundred a step in the nematic: the comparison sort's mispredicted branches cost more), by
-// comparison below; ids outside [0, 2^31) take the comparison of the pairs.
+// The threads' contacts (or candidates) in canonical order, gathered once: the exact method's
+// candidates run to thousands per step. The order (id_i, id_j) is that of one integer,
+// id_i (max_id + 1) + id_j: sorted by radix from kRadixContacts contacts (a few hundred a step
+// in the nematic: the comparison sort's mispredicted branches cost more), by comparison below;
+// ids outside [0, 2^31) take the comparison of the pairs.
 constexpr std::size_t kRadixContacts = 64;
 template <class Found>
 void merge_sorted(std::vector<std::vector<Found>> &found, std::vector<Found> &contacts) {
