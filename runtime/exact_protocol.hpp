@@ -39,8 +39,8 @@ struct ExactPieces {
   };
   struct Edge {
     std::int64_t a = 0, b = 0;  // a < b
-    std::int32_t candidate =
-        0;  // 1: a candidate; 2: one proven apart (Candidate::apart); 0: a join
+    // 1: a candidate; 2: one proven apart (Candidate::apart); 0: a join
+    std::int32_t candidate = 0;
   };
   std::vector<Body> bodies;                                   // by id after tidy()
   std::vector<Edge> edges;                                    // by (a, b) after tidy()
