@@ -199,7 +199,7 @@ void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const 
       ListedPair &pair = list.pairs[due[from + q]];
       const double d = batch.distance[q], moved = bound[pair.first] + bound[pair.second];
       const double reach = ahead ? 2.0 * (ahead->grow[pair.first] + ahead->grow[pair.second]) : 0.0;
-      pair.recheck_at = (moved - reach) + (d - D) - kDistanceSafetyMargin;
+      pair.recheck_at = slack_below((moved - reach) + (d - D) - kDistanceSafetyMargin);
       batch.candidate[candidates] = static_cast<std::uint32_t>(q);
       candidates += d < D + reach;  // (a NaN is not)
     }
@@ -357,8 +357,8 @@ void split_slacks(NeighborList &list, const double *bound, const std::uint8_t *f
       if (s == i && flagged[f]) continue;
       const double moved = bound[f] + bound[s];
       const double rest = pair.recheck_at - moved;
-      pair.allowance_first =
-          bound[f] + (moved > 0.0 && rest > 0.0 ? rest * (bound[f] / moved) : 0.5 * rest);
+      pair.allowance_first = static_cast<float>(
+          bound[f] + (moved > 0.0 && rest > 0.0 ? rest * (bound[f] / moved) : 0.5 * rest));
       const std::uint32_t other = f == i ? s : f;
       if (flagged[other]) continue;
       if (shared_watches)

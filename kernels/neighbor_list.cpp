@@ -365,7 +365,8 @@ void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near,
   }
   for (std::uint32_t k = 0; k < kept; ++k)
     if (within[k])
-      mine.push_back({i, near[k], distance[k] - diameter - kDistanceSafetyMargin, 0.0});
+      mine.push_back(
+          {i, near[k], slack_below(distance[k] - diameter - kDistanceSafetyMargin), 0.0f});
 }
 
 // The pairs of cell c's bodies with the later candidates, appended to `mine`.
@@ -456,7 +457,7 @@ void index_pairs(NeighborList &list) {
 
 void arm_watches(NeighborList &list) {
   const std::size_t n = list.active;
-  for (ListedPair &pair : list.pairs) pair.allowance_first = 0.5 * pair.recheck_at;
+  for (ListedPair &pair : list.pairs) pair.allowance_first = 0.5f * pair.recheck_at;
   index_pairs(list);
   list.watch.resize(n);
   list.flagged.assign(n + 8, 0);  // room for the last word's read

@@ -98,7 +98,8 @@ void expect_watches(const NeighborList &list) {
     const ListedPair &pair = list.pairs[k];
     EXPECT_EQ(ends[k], 2) << "pair " << k << " indexed once per body";
     EXPECT_EQ(pair.allowance_first, 0.5 * pair.recheck_at);  // split evenly at a build
-    EXPECT_EQ(pair.second_allowance(), pair.recheck_at - pair.allowance_first - kAllowanceCushion);
+    EXPECT_EQ(pair.second_allowance(),
+              double{pair.recheck_at} - double{pair.allowance_first} - kAllowanceCushion);
     EXPECT_LT(pair.allowance_first + pair.second_allowance(), pair.recheck_at);
   }
 }
@@ -136,7 +137,11 @@ TEST_P(NeighborListMatchesBruteForce, ExactlyThePairsWithinDPlusSkin) {
   for (const auto &[pair, d] : expected) {
     const auto it = got.find(pair);
     ASSERT_NE(it, got.end()) << "missing " << pair.first << "-" << pair.second << " at " << d;
-    EXPECT_NEAR(it->second, d - shape.diameter - kDistanceSafetyMargin, 1e-12);
+    // Stored as a float rounded down (slack_below): at most two float roundings below the
+    // distance's slack, never above it (beyond the distances' own rounding, 1e-12).
+    const double want = d - shape.diameter - kDistanceSafetyMargin;
+    EXPECT_LE(it->second, want + 1e-12);
+    EXPECT_GE(it->second, want - 1e-12 - 2.4e-7 * std::abs(want));
   }
   for (const auto &[pair, slack] : got)
     EXPECT_TRUE(expected.count(pair)) << "extra " << pair.first << "-" << pair.second;
@@ -213,6 +218,20 @@ TEST(NeighborList, ExpiresWhenTwiceTheLargestBoundReachesTheSkin) {
   EXPECT_EQ(largest_motion_bound(p, 4), 0.9);
   EXPECT_EQ(largest_motion_bound(p, 3), 0.7);
   EXPECT_EQ(largest_motion_bound(p, 0), 0.0);
+}
+
+// A stored slack is never above the double it came from, and is within two of a float's
+// roundings of it: a pair is measured no later than its double slack says, and hardly earlier.
+TEST(NeighborList, SlacksAreStoredRoundedDown) {
+  for (const double x : {0.1, -0.1, 0.3, 1.0 / 3.0, -1e-9, 2.5e-7, 7.123456789, 0.0, 0.5, 1e-50,
+                         -1e-50, -0.75, -1.0 / 3.0, 1e-40, -1e-40, 9.99}) {
+    const float f = slack_below(x);
+    EXPECT_LE(double{f}, x) << x;
+    EXPECT_GE(double{f}, x - 2.4e-7 * std::abs(x) - 1e-29) << x;
+  }
+  EXPECT_LT(double{slack_below(0.5)}, 0.5) << "a float is stored below itself too";
+  EXPECT_TRUE(std::isnan(slack_below(std::nan(""))));
+  EXPECT_EQ(sizeof(ListedPair), 16u);
 }
 
 // With shadows: pairs between two shadows are dropped, the owned bodies keep [0, owned), the

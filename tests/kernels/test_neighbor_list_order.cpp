@@ -72,7 +72,8 @@ std::vector<ListedPair> reference(const NeighborList &list, const Particles &p, 
         const std::uint32_t i = cand[a], j = cand[q];
         const Vec3 r = box.minimum_image(p.position(j) - p.position(i));
         const double d = std::sqrt(segment_closest(r, p.axis(i), h, p.axis(j), h).dist2);
-        if (d < reach) out.push_back({i, j, d - shape.diameter - kDistanceSafetyMargin, 0.0});
+        if (d < reach)
+          out.push_back({i, j, slack_below(d - shape.diameter - kDistanceSafetyMargin), 0.0f});
       }
   }
   return out;
