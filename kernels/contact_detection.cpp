@@ -424,10 +424,12 @@ DetectionStats finish_watched(const Particles &p, const Box &box, const Shape &s
                               std::vector<Found> &contacts, const StepAhead *ahead) {
   if (!shared.watching) {  // too many flagged: the full pass, now and until the next build
     list.watching = false;
+    if (list.watched_steps == 0) list.unarmed_builds = kUnarmedBuilds;  // at once: not worth it
     return all_pairs(p, box, shape, list, contacts, ahead);
   }
   DetectionStats out;
   out.watched = true;
+  ++list.watched_steps;
   for (std::size_t t = 0; t < shared.tests.size(); ++t) {
     out.narrow_phase_tests += shared.tests[t];
     out.max_depth = std::max(out.max_depth, shared.depth[t]);

@@ -427,7 +427,14 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   find_pairs(PairSearch(p, count, box, shape, list.cells, list.skin), list.pairs);
   list.active = count;
   if (count > owned) keep_first_ring(list, p, count, owned);
-  arm_watches(list);
+  list.watched_steps = 0;
+  if (list.unarmed_builds > 0) {  // the full pass until the next build: no watches to set
+    --list.unarmed_builds;
+    index_pairs(list);
+    list.watching = false;
+  } else {
+    arm_watches(list);
+  }
   std::fill(p.motion_bound.begin(), p.motion_bound.begin() + static_cast<long>(count), 0.0);
   list.bodies = count;
   ++list.builds;

@@ -35,6 +35,9 @@ inline constexpr double kDistanceSafetyMargin = 1e-9;
 // where a rounding is < 2e-15).
 inline constexpr double kAllowanceCushion = 1e-12;
 
+// Builds that skip the watches after a list whose watches gave up at their first step.
+inline constexpr int kUnarmedBuilds = 7;
+
 // A pair read through the watches costs ~20x a pair in a pass over the whole list (scattered
 // reads and branches against a stream): past 1/16 of the pair ends, the pass is cheaper.
 inline constexpr long kWatchedShare = 16;
@@ -91,6 +94,13 @@ struct NeighborList {
   // keeps the watches whatever the cost (tests, benchmarks).
   bool watching = false;
   long watched_share = kWatchedShare;
+  // Steps detected through the watches since the build, and builds left that skip arming
+  // them: where they gave up at the first step after a build (the exact method's bounds hold
+  // a whole step's flight, so most bodies reach their watch at once), the next
+  // kUnarmedBuilds builds do not arm them (arm_watches is 2 % of the hard-sphere step), and
+  // the one after tries again.
+  long long watched_steps = 0;
+  int unarmed_builds = 0;
   CellList cells;
   long long builds = 0;
   std::size_t bodies = 0;  // body count the list was built for

@@ -132,6 +132,59 @@ INSTANTIATE_TEST_SUITE_P(Shapes, DetectionMatchesBruteForce,
                                   std::to_string(c.threads);
                          });
 
+// Watches that give up at the first step after a build (every body reached its watch at once,
+// as under the exact method's whole-flight bounds) are not armed for the next kUnarmedBuilds
+// builds, then tried again; watches that served a step before giving up are armed at the next
+// build. The contacts are those of the full pass either way.
+TEST(Detection, WatchesThatGiveUpAtOnceSkipTheNextBuilds) {
+  Shape shape;
+  shape.length = 0.0;
+  Box box;
+  box.length = {12.0, 12.0, 12.0};
+  // Spheres on a cubic lattice of spacing 1.2: no overlaps, each pair's slack 0.2.
+  const std::size_t side = 10, n = side * side * side;
+  Particles p;
+  p.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    p.id[i] = static_cast<std::int64_t>(i);
+    p.set_position(i,
+                   {1.2 * static_cast<double>(i % side), 1.2 * static_cast<double>(i / side % side),
+                    1.2 * static_cast<double>(i / (side * side))});
+    p.set_axis(i, {0.0, 0.0, 1.0});
+  }
+  NeighborList list;
+  list.skin = 0.4;
+  std::vector<Contact> contacts;
+  const auto flag_all = [&] {  // bounds past every watch, the list not expired
+    for (std::size_t i = 0; i < n; ++i) p.motion_bound[i] = 0.15;
+  };
+  build_neighbor_list(list, p, n, box, shape);
+  ASSERT_TRUE(list.watching);
+  flag_all();
+  detect_contacts(p, box, shape, list, contacts);
+  EXPECT_TRUE(contacts.empty());
+  ASSERT_FALSE(list.watching) << "the case must make the watches give up";
+  EXPECT_EQ(list.unarmed_builds, kUnarmedBuilds);
+  for (int b = 0; b < kUnarmedBuilds; ++b) {
+    build_neighbor_list(list, p, n, box, shape);
+    EXPECT_FALSE(list.watching) << "build " << b;
+    flag_all();
+    detect_contacts(p, box, shape, list, contacts);
+    EXPECT_TRUE(contacts.empty()) << "build " << b;
+  }
+  build_neighbor_list(list, p, n, box, shape);
+  EXPECT_TRUE(list.watching) << "tried again";
+  // A step through the watches (bounds zero), then giving up: the next build arms them.
+  detect_contacts(p, box, shape, list, contacts);
+  EXPECT_TRUE(list.watching);
+  flag_all();
+  detect_contacts(p, box, shape, list, contacts);
+  EXPECT_FALSE(list.watching);
+  EXPECT_EQ(list.unarmed_builds, 0);
+  build_neighbor_list(list, p, n, box, shape);
+  EXPECT_TRUE(list.watching);
+}
+
 // The contacts come in canonical order by whichever sort the detection takes: the radix sort
 // of the packed ids with 8-bit digits (from 64 contacts) and with 11-bit digits (from 4096),
 // the comparison of packed ids (fewer), and the comparison of the pairs (ids past 2^31), on one
