@@ -152,12 +152,13 @@ class ClusterPass {
     std::push_heap(queue_.begin(), queue_.end(), Later());
   }
 
-  // Slot s flown on to time t (its flight then starts there).
+  // Slot s flown on to time t (its flight then starts there). A sphere's axis does not turn,
+  // as in its free flight (drift): the same bits, without the rotation's arithmetic.
   void fly_to(std::uint32_t s, double t) {
     Flight &f = flight_[s];
     moved_[s] += point_speed(f, cx_.shape.half_length()) * (t - f.t0);
     f.x = f.position(t);
-    f.e = f.axis(t);
+    if (cx_.shape.half_length() > 0.0) f.e = f.axis(t);
     f.t0 = t;
   }
 
