@@ -64,6 +64,9 @@ struct Context {
   const std::vector<std::uint32_t> &group_of;  // by body: its cluster, kNone if none
   double dt;
   const ExactSettings &settings;
+  // By body: a flown body's overrun, written as its cluster lands (ExactScratch::overrun; a
+  // cluster's bodies are its own, so threads write apart), else 0.
+  double *overrun;
 };
 
 // Candidate::apart holds: the detection's margin is above the search's tolerance.
@@ -286,8 +289,9 @@ class ClusterPass {
       fly_to(s, cx_.dt);
       const std::uint32_t b = bodies_[s];
       const Flight &f = flight_[s];
-      flown.push_back({b, f.x, f.e, f.v, f.w, std::max(0.0, moved_[s] - 2.0 * cx_.p.grow[b]),
-                       collisions_[s], virial_[s]});
+      const double overrun = std::max(0.0, moved_[s] - 2.0 * cx_.p.grow[b]);
+      flown.push_back({b, f.x, f.e, f.v, f.w, overrun, collisions_[s], virial_[s]});
+      cx_.overrun[b] = overrun;
     }
   }
 
@@ -608,6 +612,8 @@ void regroup(const std::vector<BodyPair> &joins, ExactScratch &scratch, Partitio
     const std::uint32_t g = scratch.label[b];
     if (g == kNone || !pt.alive[g]) return;  // came in or was taken already
     pt.alive[g] = 0;
+    if (pt.eventful[g])  // solved again: its bodies' overruns are the new pass's
+      for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = 0.0;
     touched.insert(touched.end(), pt.bodies.begin() + static_cast<long>(pt.body_start[g]),
                    pt.bodies.begin() + static_cast<long>(pt.body_start[g + 1]));
     taken.insert(taken.end(), pt.cands.begin() + static_cast<long>(pt.cand_start[g]),
@@ -676,6 +682,7 @@ void finish(const Partition &pt, ExactStats &stats, ExactScratch &scratch,
     stats.fallbacks += pt.stats[g].fallbacks;
     stats.virial += pt.stats[g].virial;
     flown.insert(flown.end(), pt.flown[g].begin(), pt.flown[g].end());
+    for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = 0.0;
   }
   for (const std::uint32_t b : pt.bodies) scratch.parent[b] = scratch.label[b] = kNone;
 }
@@ -698,18 +705,15 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
   if (candidates.empty()) return stats;
   Partition &pt = step_partition();
   first_partition(list, candidates, {}, screened(settings), scratch, pt);
-  const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
+  const Context cx{p,  box,      box.inverse_length(),  shape, list, scratch.label,
+                   dt, settings, scratch.overrun.data()};
   for (std::size_t from = 0;;) {
     solve(cx, pt, from);
     for (std::size_t g = from; g < pt.count(); ++g)
       if (pt.eventful[g]) stats += pt.stats[g];
-    for (std::size_t g = 0; g < pt.count(); ++g)
-      if (pt.alive[g] && pt.eventful[g])
-        for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = f.overrun;
+    // The live clusters' overruns are in scratch.overrun (their passes wrote them, regroup
+    // cleared those of the clusters it joined): finish clears them.
     const std::vector<BodyPair> joins = reaches(cx, pt, scratch.overrun, from);
-    for (std::size_t g = 0; g < pt.count(); ++g)
-      if (pt.eventful[g])
-        for (const FlownBody &f : pt.flown[g]) scratch.overrun[f.body] = 0.0;
     if (joins.empty()) break;
     stats.regrown += static_cast<long long>(joins.size());
     from = pt.count();
@@ -731,7 +735,8 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
   if (candidates.empty() && joins.empty()) return stats;
   Partition &pt = step_partition();
   first_partition(list, candidates, joins, screened(settings), scratch, pt);
-  const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings};
+  const Context cx{p,  box,      box.inverse_length(),  shape, list, scratch.label,
+                   dt, settings, scratch.overrun.data()};
   solve(cx, pt, 0);
   for (std::size_t g = 0; g < pt.count(); ++g)
     if (pt.eventful[g]) stats += pt.stats[g];
