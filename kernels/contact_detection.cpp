@@ -310,6 +310,22 @@ void merge_sorted(std::vector<std::vector<Found>> &found, std::vector<Found> &co
   for (const ContactKey &key : keys) contacts.push_back(found[key.list][key.at]);
 }
 
+// The threads' contacts into `contacts`: in canonical order (merge_sorted) where `ahead` asks
+// for it or there is none (the midpoint method's solver needs it), else in the threads' order,
+// one thread's by a swap of storage (both keep their capacity for the next step).
+template <class Found>
+void gather(std::vector<std::vector<Found>> &found, std::vector<Found> &contacts,
+            const StepAhead *ahead) {
+  if (!ahead || ahead->canonical) {
+    merge_sorted(found, contacts);
+  } else if (found.size() == 1) {
+    std::swap(found[0], contacts);
+  } else {
+    contacts.clear();
+    for (const std::vector<Found> &f : found) contacts.insert(contacts.end(), f.begin(), f.end());
+  }
+}
+
 }  // namespace
 
 template <class Found>
@@ -434,7 +450,7 @@ DetectionStats finish_watched(const Particles &p, const Box &box, const Shape &s
     out.narrow_phase_tests += shared.tests[t];
     out.max_depth = std::max(out.max_depth, shared.depth[t]);
   }
-  merge_sorted(shared.found, contacts);
+  gather(shared.found, contacts, ahead);
   return out;
 }
 
@@ -499,7 +515,7 @@ DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape,
       }
     }
   }
-  merge_sorted(found, contacts);
+  gather(found, contacts, ahead);
   return {tests, max_depth};
 }
 

@@ -102,7 +102,7 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
     DetectionStats detected;
     {
       ScopedRegion r(timers_, Region::kDetect);
-      const StepAhead ahead{particles_.grow.data(), scene_.dt};
+      const StepAhead ahead{particles_.grow.data(), scene_.dt, comm_.size() > 1};
       detected = detect_contacts(particles_, scene_.box, scene_.shape, list_, candidates_, ahead);
       note_detection(detected);
     }
