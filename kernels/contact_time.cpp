@@ -333,6 +333,9 @@ Vec3 Flight::position(double t) const { return x + (t - t0) * v; }
 
 Vec3 Flight::axis(double t) const {
   const double tau = t - t0;
+  // At the flight's start the axis itself (a search's first look, and a body just collided):
+  // what the rotation below gives there, but for the sign of a zero component (e + 0).
+  if (tau == 0.0) return e;
   const double w2 = norm2(w);
   const double a2 = w2 * tau * tau;
   double cos_a, sin_over_w, vers_over_w2;  // cos a, sin(a)/|w|, (1 - cos a)/|w|^2
