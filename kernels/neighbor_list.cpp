@@ -88,6 +88,8 @@ struct PairSearch {
   // minimum-image differences differ in the last bits.
   double gather_reach2, loose_reach2;
   std::vector<double> fx, fy, fz;  // folded centres (unique_images)
+  // The cells' order is the bodies' own (order[b] == b: one rank, bodies sorted by cell).
+  bool in_order = false;
 };
 
 PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, const Shape &shape,
@@ -102,12 +104,14 @@ PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, co
       unique_images(cl.full_stencil),
       side{box.length.x, box.length.y, box.length.z},
       reach(shape.diameter + skin) {
+  in_order = true;
+  for (std::size_t b = 0; b < cl.order.size(); ++b) in_order &= cl.order[b] == b;
   const double centre_reach = shape.length + reach;
   centre_reach2 = centre_reach * centre_reach;
   prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
   gather_reach2 = centre_reach2 * (1.0 + 1e-9) + 1e-9;
   loose_reach2 = (reach + 1e-6) * (reach + 1e-6);
-  if (!unique_images) return;
+  if (!unique_images || !rods) return;  // spheres: raw centres (list_spheres)
   fx.resize(count), fy.resize(count), fz.resize(count);
   for (std::size_t i = 0; i < count; ++i) {
     fx[i] = Box::wrap(p.x[i], side[0]);
@@ -131,7 +135,8 @@ struct CellScratch {
   // The cell's own bodies, then those of the stencil's later cells (nc > c): body a of
   // the cell meets the candidates after it, so each unordered pair is taken once.
   std::vector<std::uint32_t> cand;
-  std::vector<double> cx, cy, cz;  // their folded, shifted centres (unique_images)
+  // Their centres (unique_images): rods folded and shifted next to the cell, spheres raw.
+  std::vector<double> cx, cy, cz;
   std::vector<double> ex, ey, ez;  // and their axes (rods)
   // 1 for a candidate kept by the preselection (as wide as a double: the vector loop that
   // writes it then runs eight candidates at a time)
@@ -167,6 +172,39 @@ AxisReach axis_reach(const PairSearch &s, int axis, int at) {
   return r;
 }
 
+// later_cells for a cell whose stencil (-k..k on every axis) lies inside the window and
+// inside the box, without a periodic wrap: every row of the stencil's later cells is one run
+// of consecutive cells, unshifted, and the rows come in the same order as later_cells takes
+// them (so the same candidates in the same order). Returns false for any other cell.
+bool later_cells_inside(const PairSearch &s, int c, CellScratch &w) {
+  const CellList &cl = s.cl;
+  if (!cl.full_stencil) return false;
+  const int k = static_cast<int>(cl.axis_offsets[0].size() / 2);
+  const int ex = cl.extent[0], ey = cl.extent[1];
+  const int at[3] = {c % ex, (c / ex) % ey, c / (ex * ey)};
+  for (int a = 0; a < 3; ++a) {
+    const int from = cl.origin[a] + at[a];  // box coordinate before the wrap
+    if (at[a] < k || at[a] + k >= cl.extent[a] || from - k < 0 || from + k >= cl.cells[a])
+      return false;
+  }
+  const std::uint32_t *__restrict start = cl.cell_start.data();
+  if (w.runs.size() < 1 + cl.stencil.size()) w.runs.resize(1 + cl.stencil.size());
+  CellScratch::Run *__restrict out = w.runs.data();
+  std::size_t n = 0;
+  out[n++] = {start[c], start[c + k + 1], 0.0, 0.0, 0.0};  // c, then its row's later cells
+  for (int dy = 1; dy <= k; ++dy) {
+    const int row = c + dy * ex;
+    out[n++] = {start[row - k], start[row + k + 1], 0.0, 0.0, 0.0};
+  }
+  for (int dz = 1; dz <= k; ++dz)
+    for (int dy = -k; dy <= k; ++dy) {
+      const int row = c + (dz * ey + dy) * ex;
+      out[n++] = {start[row - k], start[row + k + 1], 0.0, 0.0, 0.0};
+    }
+  w.run_count = n;
+  return true;
+}
+
 // The bodies of cell c, then those of the stencil's cells after it (nc > c), into w.runs in
 // stencil order (w.run_count of them). The stencil reaches distinct cells, so visiting only cells
 // nc >= c (and, in c itself, only later bodies) takes each unordered pair exactly once. Axis by
@@ -178,6 +216,7 @@ void later_cells(const PairSearch &s, int c, CellScratch &w) {
   const CellList &cl = s.cl;
   const std::uint32_t *__restrict start = cl.cell_start.data();
   const int ex = cl.extent[0], ey = cl.extent[1];
+  if (later_cells_inside(s, c, w)) return;
   const AxisReach x = axis_reach(s, 0, c % ex), y = axis_reach(s, 1, (c / ex) % ey),
                   z = axis_reach(s, 2, c / (ex * ey));
   if (w.runs.size() < 1 + cl.stencil.size()) w.runs.resize(1 + cl.stencil.size());
@@ -219,8 +258,10 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   const std::uint32_t *__restrict member = cl.order.data();
   const std::uint32_t *__restrict start = cl.cell_start.data();
   const bool unique_images = s.unique_images, rods = s.rods;
-  const double *__restrict fx = s.fx.data(), *__restrict fy = s.fy.data(),
-                           *__restrict fz = s.fz.data();
+  // Rods: folded centres, shifted next to cell c; spheres: raw centres, unshifted.
+  const double *__restrict fx = rods ? s.fx.data() : s.p.x.data(),
+                           *__restrict fy = rods ? s.fy.data() : s.p.y.data(),
+                           *__restrict fz = rods ? s.fz.data() : s.p.z.data();
   const double *__restrict pex = s.p.ex.data(), *__restrict pey = s.p.ey.data(),
                            *__restrict pez = s.p.ez.data();
   std::uint32_t *__restrict cand = w.cand.data();
@@ -229,7 +270,21 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
                      *__restrict oez = w.ez.data();
   std::size_t q = 0;
   for (const CellScratch::Run *r = runs; r != runs_end; ++r) {
-    const double sx = r->sx, sy = r->sy, sz = r->sz;
+    const double sx = rods ? r->sx : 0.0, sy = rods ? r->sy : 0.0, sz = rods ? r->sz : 0.0;
+    if (s.in_order && unique_images) {  // body b is order[b]: copies without the indirection
+      const std::uint32_t b0 = r->begin, m = r->end - r->begin;
+      for (std::uint32_t t = 0; t < m; ++t) {
+        cand[q + t] = b0 + t;
+        ox[q + t] = fx[b0 + t] + sx;
+        oy[q + t] = fy[b0 + t] + sy;
+        oz[q + t] = fz[b0 + t] + sz;
+      }
+      if (rods)
+        for (std::uint32_t t = 0; t < m; ++t)
+          oex[q + t] = pex[b0 + t], oey[q + t] = pey[b0 + t], oez[q + t] = pez[b0 + t];
+      q += m;
+      continue;
+    }
     for (std::uint32_t b = r->begin; b < r->end; ++b, ++q) {
       const std::uint32_t j = member[b];
       cand[q] = j;
@@ -298,22 +353,50 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
   return list_kept(w, a + 1);
 }
 
-// Spheres with unique images: the centre test alone, in vector lanes (a dense fluid keeps about
-// one candidate in five).
-std::uint32_t preselect_centres(const PairSearch &s, CellScratch &w, std::uint32_t a) {
+// Spheres with unique images: list_pairs' exact test (the minimum image of the raw centres,
+// their distance) of candidate a against every later candidate at once, in vector lanes, and
+// the pairs within reach listed in the candidates' order. No preselection: a dense fluid keeps
+// about one candidate in four, so a filter and a second pass over its survivors cost more
+// than the exact test of all.
+void list_spheres(const PairSearch &s, CellScratch &w, std::uint32_t a,
+                  std::vector<ListedPair> &mine) {
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
-  const double gather_reach2 = s.gather_reach2;
+  const Box box = s.box;
+  const Vec3 inverse = s.inverse;
+  const double reach = s.reach, centre_reach2 = s.centre_reach2;
   const double xi = w.cx[a], yi = w.cy[a], zi = w.cz[a];
-  if (w.keep.size() < ncand) w.keep.resize(ncand);
-  std::uint64_t *__restrict k = w.keep.data();
+  if (w.distance.size() < ncand) w.distance.resize(ncand), w.within.resize(ncand);
+  double *__restrict distance = w.distance.data();
+  std::uint64_t *__restrict within = w.within.data();
   const double *__restrict qx = w.cx.data(), *__restrict qy = w.cy.data(),
                            *__restrict qz = w.cz.data();
 #pragma omp simd
   for (std::uint32_t q = a + 1; q < ncand; ++q) {
-    const double dx = qx[q] - xi, dy = qy[q] - yi, dz = qz[q] - zi;
-    k[q] = dx * dx + dy * dy + dz * dz < gather_reach2;
+    const Vec3 rij = box.minimum_image({qx[q] - xi, qy[q] - yi, qz[q] - zi}, inverse);
+    distance[q] = norm2(rij);  // squared here; the root only for those kept below
+    within[q] = distance[q] < centre_reach2;
   }
-  return list_kept(w, a + 1);
+  // Listed without a branch (one candidate in four is kept: a branch would mispredict),
+  // with the distance's root for those within the centres' reach only.
+  const std::uint32_t i = w.cand[a];
+  if (w.near.size() < ncand) w.near.resize(ncand);
+  std::uint32_t *__restrict at_q = w.near.data();
+  std::uint32_t near = 0;
+  for (std::uint32_t q = a + 1; q < ncand; ++q) {
+    at_q[near] = q;
+    near += static_cast<std::uint32_t>(within[q]);
+  }
+  const std::size_t at = mine.size();
+  mine.resize(at + near);
+  ListedPair *__restrict out = mine.data() + at;
+  std::size_t kept = 0;
+  for (std::uint32_t k = 0; k < near; ++k) {
+    const std::uint32_t q = at_q[k];
+    const double d = std::sqrt(distance[q]);
+    out[kept] = {i, w.cand[q], slack_below(d - s.diameter - kDistanceSafetyMargin), 0.0f};
+    kept += d < reach;
+  }
+  mine.resize(at + kept);
 }
 
 // The exact tests of body i against the kept candidates near[0, kept): each pair whose
@@ -374,12 +457,14 @@ void search_cell(const PairSearch &s, int c, CellScratch &w, std::vector<ListedP
   const std::uint32_t own = gather_cell(s, c, w);
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
   for (std::uint32_t a = 0; a < own; ++a) {
+    if (s.unique_images && !s.rods) {
+      list_spheres(s, w, a, mine);
+      continue;
+    }
     if (w.near.size() < ncand) w.near.resize(ncand);
     std::uint32_t kept = 0;
-    if (s.unique_images && s.rods) {
+    if (s.unique_images) {
       kept = preselect_rods(s, w, a);
-    } else if (s.unique_images) {
-      kept = preselect_centres(s, w, a);
     } else {
       for (std::uint32_t q = a + 1; q < ncand; ++q) w.near[kept++] = w.cand[q];
     }
