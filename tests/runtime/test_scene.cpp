@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <numbers>
 #include <random>
 #include <string>
@@ -450,41 +451,50 @@ TEST(Scene, ShippedScenesParse) {
               1e-12);
 }
 
+// Values a fuzzed scene puts where a value was: every TOML type, the edges of the numbers,
+// and values of other keys.
+// clang-format off
+const std::vector<std::string> kJunkValues = {
+    "", "-1", "0", "1e308", "-0.0", "nan", "inf", "-inf", "\"abc\"", "[1, 2]", "[]", "{}",
+    "{a = 1}", "true", "9223372036854775807", "-9223372036854775808", "1979-05-27", "'lit'",
+    "[[1], [2]]", "\"auto\"", "0x10", "1_000", "[4, 24, 24]", "2304", "0.5", "\"sphere\"",
+    "[1e300, 1, 1]", "4.9e-324", "\"\\u0000\"", "[13, 13, 13]", "1e-300", "\"z\""};
+// clang-format on
+
+// One random damage to `text` at a random place: a character deleted, a line duplicated, a
+// value replaced with junk, or a byte flipped.
+void damage(std::string &text, const std::function<std::size_t(std::size_t)> &pick) {
+  const std::size_t at = pick(text.size());
+  switch (pick(4)) {
+    case 0:
+      text.erase(at, 1);
+      break;
+    case 1: {
+      const std::size_t begin =
+          text.rfind('\n', at) == std::string::npos ? 0 : text.rfind('\n', at) + 1;
+      const std::size_t end = text.find('\n', at);
+      const std::string line =
+          text.substr(begin, end == std::string::npos ? std::string::npos : end - begin + 1);
+      text.insert(begin, line);
+      break;
+    }
+    case 2: {
+      const std::size_t equals = text.find(" = ", at);
+      if (equals == std::string::npos) break;
+      const std::size_t end = text.find('\n', equals);
+      text.replace(equals + 3, end == std::string::npos ? std::string::npos : end - equals - 3,
+                   kJunkValues[pick(kJunkValues.size())]);
+      break;
+    }
+    default:
+      text[at] = static_cast<char>(text[at] ^ (1 << pick(8)));
+      break;
+  }
+}
+
 // Random damage to a valid scene: parse_scene must accept it (and then the scene keeps every
 // invariant and round-trips) or throw SceneError with non-empty problems; nothing else.
 TEST(Scene, FuzzedScenesParseOrFailCleanly) {
-  const std::vector<std::string> junk = {"",
-                                         "-1",
-                                         "0",
-                                         "1e308",
-                                         "-0.0",
-                                         "nan",
-                                         "inf",
-                                         "-inf",
-                                         "\"abc\"",
-                                         "[1, 2]",
-                                         "[]",
-                                         "{}",
-                                         "{a = 1}",
-                                         "true",
-                                         "9223372036854775807",
-                                         "-9223372036854775808",
-                                         "1979-05-27",
-                                         "'lit'",
-                                         "[[1], [2]]",
-                                         "\"auto\"",
-                                         "0x10",
-                                         "1_000",
-                                         "[4, 24, 24]",
-                                         "2304",
-                                         "0.5",
-                                         "\"sphere\"",
-                                         "[1e300, 1, 1]",
-                                         "4.9e-324",
-                                         "\"\\u0000\"",
-                                         "[13, 13, 13]",
-                                         "1e-300",
-                                         "\"z\""};
   std::mt19937_64 random(20240601);
   auto pick = [&](std::size_t size) {
     return std::uniform_int_distribution<std::size_t>(0, size - 1)(random);
@@ -494,34 +504,7 @@ TEST(Scene, FuzzedScenesParseOrFailCleanly) {
   for (int trial = 0; trial < kTrials; ++trial) {
     std::string text = kEveryday;
     const int mutations = 1 + static_cast<int>(pick(3));
-    for (int m = 0; m < mutations && !text.empty(); ++m) {
-      const std::size_t at = pick(text.size());
-      switch (pick(4)) {
-        case 0:  // delete a character
-          text.erase(at, 1);
-          break;
-        case 1: {  // duplicate a line
-          const std::size_t begin =
-              text.rfind('\n', at) == std::string::npos ? 0 : text.rfind('\n', at) + 1;
-          const std::size_t end = text.find('\n', at);
-          const std::string line =
-              text.substr(begin, end == std::string::npos ? std::string::npos : end - begin + 1);
-          text.insert(begin, line);
-          break;
-        }
-        case 2: {  // replace a value with junk
-          const std::size_t equals = text.find(" = ", at);
-          if (equals == std::string::npos) break;
-          const std::size_t end = text.find('\n', equals);
-          text.replace(equals + 3, end == std::string::npos ? std::string::npos : end - equals - 3,
-                       junk[pick(junk.size())]);
-          break;
-        }
-        default:  // flip a byte
-          text[at] = static_cast<char>(text[at] ^ (1 << pick(8)));
-          break;
-      }
-    }
+    for (int m = 0; m < mutations && !text.empty(); ++m) damage(text, pick);
     try {
       const Scene s = parse_scene(text, {}, "fuzz.toml");
       ++accepted;

@@ -114,7 +114,14 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   std::ofstream(garbage.init_file) << "not hdf5 at all";
   EXPECT_NE(testing::start_error(garbage).find("not an HDF5 file"), std::string::npos)
       << testing::start_error(garbage);
+}
 
+TEST_F(SnapshotStart, RejectsFramesWithBadBodiesOrNoFrame) {
+  Particles last;
+  Scene scene = testing::small_nematic(1e-3);
+  scene.configuration = Configuration::kFile;
+  scene.init_file = write_run(&last);
+  scene.init_frame = -1;
   // NaN and a non-unit axis inside an otherwise valid file.
   Particles bad = last;
   bad.x[10] = std::nan("");
