@@ -88,8 +88,6 @@ struct PairSearch {
   // minimum-image differences differ in the last bits.
   double gather_reach2, loose_reach2;
   std::vector<double> fx, fy, fz;  // folded centres (unique_images)
-  // The cells' order is the bodies' own (order[b] == b: one rank, bodies sorted by cell).
-  bool in_order = false;
 };
 
 PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, const Shape &shape,
@@ -104,8 +102,6 @@ PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, co
       unique_images(cl.full_stencil),
       side{box.length.x, box.length.y, box.length.z},
       reach(shape.diameter + skin) {
-  in_order = true;
-  for (std::size_t b = 0; b < cl.order.size(); ++b) in_order &= cl.order[b] == b;
   const double centre_reach = shape.length + reach;
   centre_reach2 = centre_reach * centre_reach;
   prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
@@ -271,20 +267,6 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   std::size_t q = 0;
   for (const CellScratch::Run *r = runs; r != runs_end; ++r) {
     const double sx = rods ? r->sx : 0.0, sy = rods ? r->sy : 0.0, sz = rods ? r->sz : 0.0;
-    if (s.in_order && unique_images) {  // body b is order[b]: copies without the indirection
-      const std::uint32_t b0 = r->begin, m = r->end - r->begin;
-      for (std::uint32_t t = 0; t < m; ++t) {
-        cand[q + t] = b0 + t;
-        ox[q + t] = fx[b0 + t] + sx;
-        oy[q + t] = fy[b0 + t] + sy;
-        oz[q + t] = fz[b0 + t] + sz;
-      }
-      if (rods)
-        for (std::uint32_t t = 0; t < m; ++t)
-          oex[q + t] = pex[b0 + t], oey[q + t] = pey[b0 + t], oez[q + t] = pez[b0 + t];
-      q += m;
-      continue;
-    }
     for (std::uint32_t b = r->begin; b < r->end; ++b, ++q) {
       const std::uint32_t j = member[b];
       cand[q] = j;
@@ -358,8 +340,9 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
 // the pairs within reach listed in the candidates' order. No preselection: a dense fluid keeps
 // about one candidate in four, so a filter and a second pass over its survivors cost more
 // than the exact test of all.
-void list_spheres(const PairSearch &s, CellScratch &w, std::uint32_t a,
-                  std::vector<ListedPair> &mine) {
+// (Not inlined: inlined, it made find_pairs too large for GCC to inline the rods' list_pairs.)
+[[gnu::noinline]] void list_spheres(const PairSearch &s, CellScratch &w, std::uint32_t a,
+                                    std::vector<ListedPair> &mine) {
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
   const Box box = s.box;
   const Vec3 inverse = s.inverse;
