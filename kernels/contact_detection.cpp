@@ -508,11 +508,15 @@ DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape,
     for (long k = lo; k < hi; ++k) {
       due[n] = static_cast<std::uint32_t>(k);
       n += bound[pairs[k].first] + bound[pairs[k].second] >= pairs[k].recheck_at;
-      if (n == kDueBatch || (k + 1 == hi && n > 0)) {
+      if (n == kDueBatch) {
         measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
         tests += static_cast<long long>(n);
         n = 0;
       }
+    }
+    if (n > 0) {  // the last batch
+      measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
+      tests += static_cast<long long>(n);
     }
   }
   gather(found, contacts, ahead);

@@ -142,6 +142,18 @@ struct CellScratch {
   std::vector<std::uint64_t> within;  // 1 for those within reach
 };
 
+// One thread's pairs as found: [0, count) of `pairs`, whose storage only grows (kept from build
+// to build), so a body's pairs are written in place without a branch per candidate.
+struct FoundPairs {
+  std::vector<ListedPair> pairs;
+  std::size_t count = 0;
+  // Room for `need` more pairs after [0, count).
+  ListedPair *room(std::size_t need) {
+    if (pairs.size() < count + need) pairs.resize(std::max(2 * pairs.size(), count + need));
+    return pairs.data() + count;
+  }
+};
+
 // The stencil along one axis from window coordinate `at`: for each offset, the window
 // coordinate of the cell it reaches (-1 outside the window, where there are no bodies) and
 // the shift that brings that cell's folded centres next to this cell. As CellList::neighbour
@@ -342,7 +354,7 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
 // than the exact test of all.
 // (Not inlined: inlined, it made find_pairs too large for GCC to inline the rods' list_pairs.)
 [[gnu::noinline]] void list_spheres(const PairSearch &s, CellScratch &w, std::uint32_t a,
-                                    std::vector<ListedPair> &mine) {
+                                    FoundPairs &mine) {
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
   const Box box = s.box;
   const Vec3 inverse = s.inverse;
@@ -369,9 +381,7 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
     at_q[near] = q;
     near += static_cast<std::uint32_t>(within[q]);
   }
-  const std::size_t at = mine.size();
-  mine.resize(at + near);
-  ListedPair *__restrict out = mine.data() + at;
+  ListedPair *__restrict out = mine.room(near);
   std::size_t kept = 0;
   for (std::uint32_t k = 0; k < near; ++k) {
     const std::uint32_t q = at_q[k];
@@ -379,7 +389,7 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
     out[kept] = {i, w.cand[q], slack_below(d - s.diameter - kDistanceSafetyMargin), 0.0f};
     kept += d < reach;
   }
-  mine.resize(at + kept);
+  mine.count += kept;
 }
 
 // The exact tests of body i against the kept candidates near[0, kept): each pair whose
@@ -388,7 +398,7 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
 // the same bits), and the pairs within reach are listed after, in the candidates' order.
 template <bool Rods>
 void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near, std::uint32_t kept,
-                CellScratch &w, std::vector<ListedPair> &mine) {
+                CellScratch &w, FoundPairs &mine) {
   // The search's constants in locals: the stores could otherwise alias them and force a
   // reload per candidate.
   const Box box = s.box;
@@ -429,14 +439,17 @@ void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near,
     distance[k] = d;
     within[k] = !apart & (d < reach);
   }
-  for (std::uint32_t k = 0; k < kept; ++k)
-    if (within[k])
-      mine.push_back(
-          {i, near[k], slack_below(distance[k] - diameter - kDistanceSafetyMargin), 0.0f});
+  ListedPair *__restrict out = mine.room(kept);  // listed without a branch
+  std::size_t listed = 0;
+  for (std::uint32_t k = 0; k < kept; ++k) {
+    out[listed] = {i, near[k], slack_below(distance[k] - diameter - kDistanceSafetyMargin), 0.0f};
+    listed += within[k];
+  }
+  mine.count += listed;
 }
 
 // The pairs of cell c's bodies with the later candidates, appended to `mine`.
-void search_cell(const PairSearch &s, int c, CellScratch &w, std::vector<ListedPair> &mine) {
+void search_cell(const PairSearch &s, int c, CellScratch &w, FoundPairs &mine) {
   const std::uint32_t own = gather_cell(s, c, w);
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
   for (std::uint32_t a = 0; a < own; ++a) {
@@ -466,14 +479,16 @@ void search_cell(const PairSearch &s, int c, CellScratch &w, std::vector<ListedP
 void find_pairs(const PairSearch &s, std::vector<ListedPair> &pairs) {
   // The threads' pairs, their storage kept from build to build (grown from nothing, a list of
   // 10^5 pairs was copied over a dozen times), reached by the team through a reference.
-  thread_local std::vector<std::vector<ListedPair>> storage;
-  std::vector<std::vector<ListedPair>> &found = storage;
+  thread_local std::vector<FoundPairs> storage;
+  std::vector<FoundPairs> &found = storage;
   found.resize(static_cast<std::size_t>(omp_get_max_threads()));
 #pragma omp parallel
   {
-    std::vector<ListedPair> &mine = found[omp_get_thread_num()];
-    mine.clear();
-    CellScratch scratch;
+    FoundPairs &mine = found[omp_get_thread_num()];
+    mine.count = 0;
+    // Each thread's scratch, kept from build to build too (grown from nothing, its arrays were
+    // allocated and zeroed again at every build).
+    thread_local CellScratch scratch;
 #pragma omp for schedule(static)
     for (int c = 0; c < s.cl.cell_count(); ++c) {
       // An empty cell has no pairs to start (in a gas, or the box beyond a rank's halo).
@@ -482,7 +497,8 @@ void find_pairs(const PairSearch &s, std::vector<ListedPair> &pairs) {
     }
   }
   pairs.clear();
-  for (const auto &f : found) pairs.insert(pairs.end(), f.begin(), f.end());
+  for (const FoundPairs &f : found)
+    pairs.insert(pairs.end(), f.pairs.begin(), f.pairs.begin() + static_cast<long>(f.count));
 }
 
 }  // namespace
