@@ -158,7 +158,7 @@ def short_name(name):
         if depth == 0:
             out.append(ch)
         depth -= ch in ")>"
-    short = "".join(out).split()
+    short = [w for w in "".join(out).split() if w not in ("const", "noexcept")]
     return short[-1] if short else name
 
 

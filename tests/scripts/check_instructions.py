@@ -35,6 +35,7 @@ Ir                    file:function
  29,798,256 ( 2.68%)  ./math/../sysdeps/x86_64/fpu/multiarch/s_nearbyint-sse4_1.S:__nearbyint_sse41 [/usr/lib/x86_64-linux-gnu/libm.so.6]
   1,000,000 ( 0.09%)  ???:void hardrod::(anonymous namespace)::due_distances<true>(hardrod::Particles const&, hardrod::Box const&) [/tmp/b/hardrod]
   4,698,723 ( 0.42%)  ???:hardrod::arm_watches(hardrod::NeighborList&) [clone ._omp_fn.0] [/tmp/b/hardrod]
+  3,000,000 ( 0.27%)  ???:hardrod::Flight::axis(double) const [/tmp/b/hardrod]
 """
 
 CACHE_SIM = """\
@@ -71,7 +72,7 @@ def parser():
     check(events == ["Ir"] and totals == [1112387859], "one event: the totals")
     names = [name for name, _ in functions]
     check(names == ["find_pairs", "due_distances", "__nearbyint_sse41", "due_distances",
-                    "arm_watches"], f"one event: the functions' short names ({names})")
+                    "arm_watches", "Flight::axis"], f"one event: the functions' short names ({names})")
     merged = instructions.merged(functions)
     check(merged[0] == ("find_pairs", [327546172]) and
           dict(merged)["due_distances"] == [84323604], "clones and instances add up, largest first")
