@@ -41,14 +41,20 @@ struct SnapshotStart : ::testing::Test {
     w.append(*last, sim.current_step(), sim.time());
     return path;
   }
+
+  // The small nematic started from the last frame of write_run.
+  Scene file_start(Particles *last) {
+    Scene scene = testing::small_nematic(1e-3);
+    scene.configuration = Configuration::kFile;
+    scene.init_file = write_run(last);
+    scene.init_frame = -1;
+    return scene;
+  }
 };
 
 TEST_F(SnapshotStart, TakesPositionsAndAxesOfTheFrameBitForBit) {
   Particles last;
-  Scene scene = testing::small_nematic(1e-3);
-  scene.configuration = Configuration::kFile;
-  scene.init_file = write_run(&last);
-  scene.init_frame = -1;
+  Scene scene = file_start(&last);
   const Particles p = initial_bodies(scene);
   ASSERT_EQ(p.size(), last.size());
   for (std::size_t i = 0; i < p.size(); ++i) {
@@ -78,9 +84,7 @@ TEST_F(SnapshotStart, TakesPositionsAndAxesOfTheFrameBitForBit) {
 
 TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
   Particles last;
-  Scene scene = testing::small_nematic(1e-3);
-  scene.configuration = Configuration::kFile;
-  scene.init_file = write_run(&last);
+  Scene scene = file_start(&last);
 
   scene.init_frame = 2;
   EXPECT_NE(testing::start_error(scene).find("frame 2 requested, the file has 2 frame(s)"),
@@ -118,10 +122,7 @@ TEST_F(SnapshotStart, RejectsFilesThatDoNotFitWithTheKeyAndTheReason) {
 
 TEST_F(SnapshotStart, RejectsFramesWithBadBodiesOrNoFrame) {
   Particles last;
-  Scene scene = testing::small_nematic(1e-3);
-  scene.configuration = Configuration::kFile;
-  scene.init_file = write_run(&last);
-  scene.init_frame = -1;
+  Scene scene = file_start(&last);
   // NaN and a non-unit axis inside an otherwise valid file.
   Particles bad = last;
   bad.x[10] = std::nan("");
@@ -156,9 +157,7 @@ TEST_F(SnapshotStart, RejectsFramesWithBadBodiesOrNoFrame) {
 // run at step 1 into "try a smaller run.dt".
 TEST_F(SnapshotStart, OverlappingFrameIsRefusedAtTheStart) {
   Particles last;
-  Scene scene = testing::small_nematic(1e-3);
-  scene.configuration = Configuration::kFile;
-  scene.init_file = write_run(&last);
+  Scene scene = file_start(&last);
   scene.init_frame = 0;
   EXPECT_EQ(testing::start_error(scene), "");  // the lattice touches nowhere
   // The same frame with one body moved half a diameter beside another.

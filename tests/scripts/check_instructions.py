@@ -9,15 +9,11 @@
    dry run lists one counted run per system and build, and runs nothing.
 """
 
-import contextlib
-import io
 import pathlib
-import sys
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
-from hardrod_bench import cli, instructions  # noqa: E402
+from bench_cli import check, run_cli
+from hardrod_bench import instructions
 
 ONE_EVENT = """\
 Events recorded:  Ir
@@ -48,23 +44,6 @@ Ir                  Dr                 Dw                 I1mr           D1mr   
 49,172,800 (32.70%) 8,009,334 (23.42%) 1,965,356 (15.67%)   136 ( 0.19%)  91,303 ( 6.60%) 36,546 (11.58%)   .           .              .           ???:hardrod::(anonymous namespace)::find_pairs(hardrod::(anonymous namespace)::PairSearch const&) [clone ._omp_fn.0] [/tmp/b/hardrod]
 17,744,000 (11.80%) 2,650,850 ( 7.75%) 1,268,150 (10.11%)   850 ( 1.18%) 202,548 (14.64%)      0           17 ( 1.51%)  .              .           ???:double hardrod::(anonymous namespace)::drift<true, 2, false>(hardrod::Particles&, long, long, double) [clone .isra.0] [/tmp/b/hardrod]
 """
-
-
-def check(condition, message):
-    if not condition:
-        raise SystemExit(f"FAILED: {message}")
-    print(f"ok: {message}")
-
-
-def run_cli(argv):
-    """(exit status or SystemExit message, stdout) of `scripts/bench ARGV` in this process."""
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        try:
-            status = cli.main(argv)
-        except SystemExit as e:
-            status = e.code
-    return status, out.getvalue()
 
 
 def parser():

@@ -15,40 +15,19 @@
    with --methods exact alone (no midpoint sweep to fit), no recommendation, saying why.
 """
 
-import contextlib
 import csv
-import io
 import json
 import math
 import pathlib
-import sys
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
-from hardrod_bench import cli, tradeoff, tradeoff_plot  # noqa: E402
+from bench_cli import check, run_cli
+from hardrod_bench import cli, tradeoff, tradeoff_plot
 
 START = "/nonexistent/equilibrated/trajectory.h5"  # never opened: nothing runs
 P0 = {"hard-spheres": 4.2234, "nematic": 6.015}
 REL_ERROR = 0.001   # every point's P* error, relative
 MIDPOINT_SLOPE = -10.0  # relative P* bias per unit dt: -0.3 % at 3e-4, -1 % at 1e-3
-
-
-def check(condition, message):
-    if not condition:
-        raise SystemExit(f"FAILED: {message}")
-    print(f"ok: {message}")
-
-
-def run_cli(argv):
-    """(exit status or SystemExit message, stdout) of `scripts/bench ARGV` in this process."""
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        try:
-            status = cli.main(argv)
-        except SystemExit as e:
-            status = e.code
-    return status, out.getvalue()
 
 
 def dry_run():
