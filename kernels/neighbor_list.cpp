@@ -482,10 +482,10 @@ void find_pairs(const PairSearch &s, std::vector<ListedPair> &pairs) {
   thread_local std::vector<FoundPairs> storage;
   std::vector<FoundPairs> &found = storage;
   found.resize(static_cast<std::size_t>(omp_get_max_threads()));
+  for (FoundPairs &f : found) f.count = 0;  // (also those of threads a smaller team leaves out)
 #pragma omp parallel
   {
     FoundPairs &mine = found[omp_get_thread_num()];
-    mine.count = 0;
     // Each thread's scratch, kept from build to build too (grown from nothing, its arrays were
     // allocated and zeroed again at every build).
     thread_local CellScratch scratch;
