@@ -186,8 +186,9 @@ def count(binary, system, out, steps, start, cache_sim, ll):
     text = subprocess.run(["callgrind_annotate", "--threshold=100", str(profile)],
                           capture_output=True, text=True).stdout
     events, totals, functions = parse_annotate(text)
-    if totals is None:
-        return {"error": "no totals in callgrind_annotate's output"}
+    if totals is None or not totals[0]:
+        return {"error": f"nothing counted: {ADVANCE} is not in this build (inlined, as link-time "
+                         "optimisation does; count a build without it)"}
     per = float(summary["n"]) * float(summary["steps_done"])
     return {"events": events, "per_particle_step": {e: t / per for e, t in zip(events, totals)},
             "functions": [(name, {e: c / per for e, c in zip(events, costs)})
