@@ -221,10 +221,10 @@ bool later_cells_inside(const PairSearch &s, int c, CellScratch &w) {
 // run's in `order` with the same shift (neighbours along x, mostly) extend it: a nematic's cells
 // hold ~3 bodies, too few for a copy loop per cell to pay.
 void later_cells(const PairSearch &s, int c, CellScratch &w) {
+  if (later_cells_inside(s, c, w)) return;
   const CellList &cl = s.cl;
   const std::uint32_t *__restrict start = cl.cell_start.data();
   const int ex = cl.extent[0], ey = cl.extent[1];
-  if (later_cells_inside(s, c, w)) return;
   const AxisReach x = axis_reach(s, 0, c % ex), y = axis_reach(s, 1, (c / ex) % ey),
                   z = axis_reach(s, 2, c / (ex * ey));
   if (w.runs.size() < 1 + cl.stencil.size()) w.runs.resize(1 + cl.stencil.size());

@@ -222,20 +222,26 @@ def main(args):
     starts = {s: relax(binaries[0], s, out / "runs" / f"{s}-start") for s in systems}
     results = {}
     for s, k, steps in plan:
-        print(f"bench instructions: {s}, build {'AB'[k] if len(binaries) > 1 else ''}"
-              f" {relpath(binaries[k])}, {steps} steps", flush=True)
+        print(f"bench instructions: {s}, build {label(k)} {relpath(binaries[k])}, {steps} steps",
+              flush=True)
         results[(s, k)] = count(binaries[k], s, out / "runs" / f"{s}-{k}", steps, starts[s],
                                 args.cache_sim, args.ll)
     return report(args, out, systems, binaries, results)
 
 
-def report(args, out, systems, binaries, results):
-    labels = ["A", "B"][:len(binaries)] if len(binaries) <= 2 else [str(k) for k in range(len(binaries))]
-    rows, function_rows, lines = [], [], []
+def label(k):
+    """Build k's name in the tables: A, B, C, ..."""
+    return chr(ord("A") + k)
+
+
+def tabulate(systems, binaries, results, top):
+    """A row per system and build, and the top functions of build A with the others' ratios."""
+    labels = [label(k) for k in range(len(binaries))]
+    rows, function_rows = [], []
     for s in systems:
-        for k, label in enumerate(labels):
+        for k, tag in enumerate(labels):
             r = results[(s, k)]
-            row = {"system": s, "build": label, "binary": str(binaries[k]), "error": r.get("error")}
+            row = {"system": s, "build": tag, "binary": str(binaries[k]), "error": r.get("error")}
             if "error" not in r:
                 row.update({"checksum": r["checksum"], "steps": r["steps"], "n": r["n"],
                             "builds": r["builds"],
@@ -244,7 +250,7 @@ def report(args, out, systems, binaries, results):
         base = results[(s, 0)]
         if "error" in base:
             continue
-        for name, costs in base["functions"][:args.top]:
+        for name, costs in base["functions"][:top]:
             frow = {"system": s, "function": name, "A_Ir": costs["Ir"]}
             for k in range(1, len(binaries)):
                 other = dict(results[(s, k)].get("functions", []))
@@ -252,6 +258,12 @@ def report(args, out, systems, binaries, results):
                     frow[f"{labels[k]}_Ir"] = other[name]["Ir"]
                     frow[f"{labels[k]}/A"] = other[name]["Ir"] / costs["Ir"] if costs["Ir"] else None
             function_rows.append(frow)
+    return rows, function_rows
+
+
+def report(args, out, systems, binaries, results):
+    labels = [label(k) for k in range(len(binaries))]
+    rows, function_rows = tabulate(systems, binaries, results, args.top)
     events = next((r["events"] for r in results.values() if "events" in r), ["Ir"])
     columns = ["system", "build", "checksum", "steps", "n", "builds",
                *[f"{e}_per_particle_step" for e in events], "binary", "error"]
