@@ -72,8 +72,8 @@ void sort_bodies_by_cell(CellList &cells, Particles &p, std::size_t count, std::
 // (box.minimum_image). This only preselects: the survivors are measured exactly as
 // without it, from minimum_image, so the pairs and their slacks are those of that test alone.
 struct PairSearch {
-  PairSearch(const Particles &p, std::size_t count, const Box &box, const Shape &shape,
-             const CellList &cl, double skin);
+  PairSearch(const Particles &p, const Box &box, const Shape &shape, const CellList &cl,
+             double skin);
   const Particles &p;
   const Box &box;
   const CellList &cl;
@@ -87,11 +87,23 @@ struct PairSearch {
   // The preselection keeps a little more than the reach: rounding of the folded and the
   // minimum-image differences differ in the last bits.
   double gather_reach2, loose_reach2;
-  std::vector<double> fx, fy, fz;  // folded centres (unique_images)
+  // Rods with unique_images: their folded centres and axes in cell order (entry b is body
+  // order[b]), so that a run of cells is a run of entries, and its candidates are copied in
+  // vector lanes without an index per value. The storage is kept from build to build.
+  struct CellOrdered {
+    std::vector<double> x, y, z, ex, ey, ez;
+  };
+  CellOrdered &ordered;
 };
 
-PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, const Shape &shape,
-                       const CellList &cl, double skin)
+// The builder's storage for PairSearch::ordered (the builds of one thread share it).
+PairSearch::CellOrdered &kept_ordered() {
+  thread_local PairSearch::CellOrdered storage;
+  return storage;
+}
+
+PairSearch::PairSearch(const Particles &p, const Box &box, const Shape &shape, const CellList &cl,
+                       double skin)
     : p(p),
       box(box),
       cl(cl),
@@ -101,18 +113,25 @@ PairSearch::PairSearch(const Particles &p, std::size_t count, const Box &box, co
       rods(!shape.is_sphere()),
       unique_images(cl.full_stencil),
       side{box.length.x, box.length.y, box.length.z},
-      reach(shape.diameter + skin) {
+      reach(shape.diameter + skin),
+      ordered(kept_ordered()) {
   const double centre_reach = shape.length + reach;
   centre_reach2 = centre_reach * centre_reach;
   prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
   gather_reach2 = centre_reach2 * (1.0 + 1e-9) + 1e-9;
   loose_reach2 = (reach + 1e-6) * (reach + 1e-6);
-  if (!unique_images || !rods) return;  // spheres: raw centres (list_spheres)
-  fx.resize(count), fy.resize(count), fz.resize(count);
-  for (std::size_t i = 0; i < count; ++i) {
-    fx[i] = Box::wrap(p.x[i], side[0]);
-    fy[i] = Box::wrap(p.y[i], side[1]);
-    fz[i] = Box::wrap(p.z[i], side[2]);
+  if (!unique_images || !rods) return;  // spheres: raw centres, by index (list_spheres)
+  const std::uint32_t *order = cl.order.data();
+  const std::size_t n = cl.order.size();
+  CellOrdered &o = ordered;
+  o.x.resize(n), o.y.resize(n), o.z.resize(n);
+  o.ex.resize(n), o.ey.resize(n), o.ez.resize(n);
+  for (std::size_t b = 0; b < n; ++b) {
+    const std::uint32_t i = order[b];
+    o.x[b] = Box::wrap(p.x[i], side[0]);
+    o.y[b] = Box::wrap(p.y[i], side[1]);
+    o.z[b] = Box::wrap(p.z[i], side[2]);
+    o.ex[b] = p.ex[i], o.ey[b] = p.ey[i], o.ez[b] = p.ez[i];
   }
 }
 
@@ -251,6 +270,44 @@ void later_cells(const PairSearch &s, int c, CellScratch &w) {
   w.run_count = n;
 }
 
+// A run of n entries (cell order, from b0) into the candidates from q. Loops over all the
+// values at once, so that they vectorise without alias checks (the runs are ~20 long; a loop
+// per array became a library call).
+inline void copy_rods(const PairSearch &s, std::size_t b0, std::size_t n, double sx, double sy,
+                      double sz, CellScratch &w, std::size_t q) {
+  const std::uint32_t *__restrict member = s.cl.order.data() + b0;
+  std::uint32_t *__restrict cand = w.cand.data() + q;
+  const PairSearch::CellOrdered &o = s.ordered;
+  const double *__restrict fx = o.x.data() + b0, *__restrict fy = o.y.data() + b0,
+                           *__restrict fz = o.z.data() + b0;
+  const double *__restrict fex = o.ex.data() + b0, *__restrict fey = o.ey.data() + b0,
+                           *__restrict fez = o.ez.data() + b0;
+  double *__restrict ox = w.cx.data() + q, *__restrict oy = w.cy.data() + q,
+                     *__restrict oz = w.cz.data() + q;
+  double *__restrict oex = w.ex.data() + q, *__restrict oey = w.ey.data() + q,
+                     *__restrict oez = w.ez.data() + q;
+#pragma GCC ivdep  // (inlined, the restricts are lost)
+  for (std::size_t t = 0; t < n; ++t) {
+    cand[t] = member[t];
+    ox[t] = fx[t] + sx, oy[t] = fy[t] + sy, oz[t] = fz[t] + sz;
+    oex[t] = fex[t], oey[t] = fey[t], oez[t] = fez[t];
+  }
+}
+// Spheres: their raw centres by index (a pass into cell order would cost what it saves).
+inline void copy_spheres(const PairSearch &s, std::size_t b0, std::size_t n, CellScratch &w,
+                         std::size_t q) {
+  const std::uint32_t *__restrict member = s.cl.order.data() + b0;
+  std::uint32_t *__restrict cand = w.cand.data() + q;
+  const double *__restrict x = s.p.x.data(), *__restrict y = s.p.y.data(),
+                           *__restrict z = s.p.z.data();
+  double *__restrict ox = w.cx.data() + q, *__restrict oy = w.cy.data() + q,
+                     *__restrict oz = w.cz.data() + q;
+  for (std::size_t t = 0; t < n; ++t) {
+    const std::uint32_t j = member[t];
+    cand[t] = j, ox[t] = x[j], oy[t] = y[j], oz[t] = z[j];
+  }
+}
+
 // The candidates of cell c: its bodies, then those of the stencil's cells after it. Returns
 // how many are c's own.
 std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
@@ -265,30 +322,18 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   // Locals: the stores below must not make the compiler reload the search's arrays.
   const std::uint32_t *__restrict member = cl.order.data();
   const std::uint32_t *__restrict start = cl.cell_start.data();
-  const bool unique_images = s.unique_images, rods = s.rods;
-  // Rods: folded centres, shifted next to cell c; spheres: raw centres, unshifted.
-  const double *__restrict fx = rods ? s.fx.data() : s.p.x.data(),
-                           *__restrict fy = rods ? s.fy.data() : s.p.y.data(),
-                           *__restrict fz = rods ? s.fz.data() : s.p.z.data();
-  const double *__restrict pex = s.p.ex.data(), *__restrict pey = s.p.ey.data(),
-                           *__restrict pez = s.p.ez.data();
   std::uint32_t *__restrict cand = w.cand.data();
-  double *__restrict ox = w.cx.data(), *__restrict oy = w.cy.data(), *__restrict oz = w.cz.data();
-  double *__restrict oex = w.ex.data(), *__restrict oey = w.ey.data(),
-                     *__restrict oez = w.ez.data();
+  const bool unique_images = s.unique_images, rods = s.rods;
   std::size_t q = 0;
   for (const CellScratch::Run *r = runs; r != runs_end; ++r) {
-    const double sx = rods ? r->sx : 0.0, sy = rods ? r->sy : 0.0, sz = rods ? r->sz : 0.0;
-    for (std::uint32_t b = r->begin; b < r->end; ++b, ++q) {
-      const std::uint32_t j = member[b];
-      cand[q] = j;
-      if (unique_images) {
-        ox[q] = fx[j] + sx;
-        oy[q] = fy[j] + sy;
-        oz[q] = fz[j] + sz;
-        if (rods) oex[q] = pex[j], oey[q] = pey[j], oez[q] = pez[j];
-      }
-    }
+    const std::size_t b0 = r->begin, n = r->end - r->begin;
+    if (unique_images && rods)
+      copy_rods(s, b0, n, r->sx, r->sy, r->sz, w, q);
+    else if (unique_images)
+      copy_spheres(s, b0, n, w, q);
+    else
+      for (std::size_t t = 0; t < n; ++t) cand[q + t] = member[b0 + t];
+    q += n;
   }
   return start[c + 1] - start[c];
 }
@@ -508,7 +553,7 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   const double reach = shape.diameter + list.skin;
   build_cell_list(list.cells, p, count, box, shape.length + reach, true);
   sort_bodies_by_cell(list.cells, p, count, owned);
-  find_pairs(PairSearch(p, count, box, shape, list.cells, list.skin), list.pairs);
+  find_pairs(PairSearch(p, box, shape, list.cells, list.skin), list.pairs);
   list.active = count;
   if (count > owned) keep_first_ring(list, p, count, owned);
   list.watched_steps = 0;
