@@ -64,12 +64,13 @@ bool lattice_start(const Scene &s) { return s.configuration == Configuration::kL
 bool file_start(const Scene &s) { return s.configuration == Configuration::kFile; }
 
 // The exact method's bounds grow by a whole step's flight at dt ~1e-3 before every step: a
-// wider skin rebuilds less often, a too wide one lists more pairs. Measured (BM_ExactStep,
-// docs/performance.md): the nematic at dt 1e-3 costs the same at 0.6 and 1.0 D and 11 % more
-// at 0.3 D; hard spheres at 2e-3 the same at 0.3 and 0.5 D and 10 % more at 0.8 D.
-constexpr double kExactSkin = 0.6;
+// wider skin rebuilds less often, a too wide one lists more pairs. Measured in turns
+// (docs/performance.md): the equilibrated nematic at dt 1e-3 costs 0.92x at 1.0 D what it
+// costs at 0.6 D (0.8 and 1.3 D in between); hard spheres at 2e-3 cost the same from 0.3 to
+// 0.6 D and 10 % more at 0.8 D.
+constexpr double kExactSkinRods = 1.0, kExactSkinSpheres = 0.6;
 void skin_for_method(Scene &s) {
-  if (s.method == kExact) s.skin = kExactSkin;
+  if (s.method == kExact) s.skin = s.shape_name == "sphere" ? kExactSkinSpheres : kExactSkinRods;
 }
 
 // A sphere has L = 0: its aspect ratio defaults to 0 and may not be anything else.
@@ -166,7 +167,7 @@ constexpr KeySpec kKeys[] = {
      .help = "iterations of the multi-contact solver"},
     {.section = "run", .name = "skin", .type = kReal, .member = &Scene::skin,
      .limit = between_closed(0.0, 2.0), .fallback = skin_for_method,
-     .default_text = "0.3 (0.6 for method = \"exact\")",
+     .default_text = "0.3 (method = \"exact\": 1.0 for rods, 0.6 for spheres)",
      .help = "neighbour-list skin in D: speed only, never the trajectory"},
     // [output]
     {.section = "output", .name = "dir", .type = kString, .member = &Scene::output_dir,

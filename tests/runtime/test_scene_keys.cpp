@@ -189,7 +189,11 @@ TEST(SceneKeys, MethodIsMidpointOrExact) {
   std::string no_skin = kScene;
   no_skin.erase(no_skin.find("skin = 0.3\n"), 11);
   EXPECT_EQ(parse_scene(no_skin).skin, 0.3);
-  EXPECT_EQ(parse_scene(no_skin, {"run.method=exact"}).skin, 0.6);
+  EXPECT_EQ(parse_scene(no_skin, {"run.method=exact"}).skin, 1.0);  // rods
+  EXPECT_EQ(parse_scene("[system]\nshape = \"sphere\"\nn = 8\npacking_fraction = 0.1\n[run]\n"
+                        "dt = 1e-3\nsteps = 10\nmethod = \"exact\"\n")
+                .skin,
+            0.6);
   EXPECT_EQ(parse_scene(kScene, {"run.method=exact"}).skin, 0.3);
   EXPECT_EQ(parse_scene(no_skin, {"run.method=exact", "run.skin=0.4"}).skin, 0.4);
   const auto problems = problems_of(kScene, {"run.method=leapfrog"});
