@@ -29,7 +29,7 @@ def add_arguments(k):
     k.add_argument("--filter", default="", help="--benchmark_filter regex (default: all)")
     k.add_argument("--repetitions", type=int, default=3, help="repetitions per benchmark (min/median/max)")
     k.add_argument("--min-time", default="", help="--benchmark_min_time (seconds)")
-    k.add_argument("--relax-tau", type=float, default=None, help="HARDROD_BENCH_RELAX_TAU (default: the binary's, 1 tau)")
+    k.add_argument("--relax-tau", type=float, default=None, help="HARDROD_BENCH_RELAX_TAU (default: the binary's: BM_TimeStep 1 tau, BM_ExactStep the nematic 40 tau and the spheres 4 tau)")
     k.add_argument("benchmark_args", nargs="*", help="after --: passed to the benchmark binary")
 
 
