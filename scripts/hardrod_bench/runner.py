@@ -30,9 +30,10 @@ class Run:
     prefix: list = field(default_factory=list)   # e.g. mpirun -np R (mpi.prefix)
     meta: dict = field(default_factory=dict)
     extra_args: list = field(default_factory=list)  # more `hardrod run` flags, e.g. --grid
+    binary: Path = None                # another build's hardrod (default build/hardrod)
 
     def argv(self):
-        cmd = [*self.prefix, relpath(HARDROD), "run", self.scene]
+        cmd = [*self.prefix, relpath(self.binary or HARDROD), "run", self.scene]
         for k, v in self.sets.items():
             cmd += ["--set", f"{k}={v}"]
         return cmd + ["--out", relpath(self.out), "--force", "--threads", str(self.threads), *self.extra_args]

@@ -1,0 +1,211 @@
+"""`scripts/bench versus`: the exact method's cost, in turns with the build issue 20's goal was set on.
+
+Issue 20 set its nematic goal (0.05 ms of CPU per rod per tau on one core) against the
+midpoint method at dt 1e-4 on the day it was filed: 0.21 ms, measured with the commit before
+the exact method (654ed7a). So the goal is a ratio, 0.05 / 0.21 = 0.24 of that build's cost.
+This machine's speed drifts by up to 1.5x within an hour, so an absolute figure taken on
+another day cannot decide the goal; a ratio taken in turns can. The harness builds that
+commit once (build-anchor-REV/, from `git archive`), relaxes the everyday nematic to
+equilibrium with the exact method, then runs, round after round, the anchor's midpoint
+method and the exact method at each --configs dt:skin, every run from that state on one
+thread, and reports the cost per rod per tau, each run's ratio to the anchor of its round,
+the medians, and the goal's ratio. Writes versus.csv, versus.json and report.md.
+"""
+
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+from .common import (HARDROD, ROOT, ensure_built, g, make_outdir, markdown_table, relpath,
+                     report_header, write_csv, write_json, write_text)
+from .runner import Run, execute, file_start
+
+HELP = "issue 20's nematic goal: the exact method in turns with the midpoint build it was set on"
+DESCRIPTION = ("Build the anchor commit (default 654ed7a, the midpoint method the goal was set "
+               "against), relax the everyday nematic to equilibrium, then run the anchor's midpoint "
+               "method at dt 1e-4 and the exact method at each --configs in turns, one thread, from "
+               "that state; report us of CPU per rod per tau, ratios to each round's anchor, their "
+               "medians and the goal's ratio (--goal / --anchor-cost). Writes versus.csv, "
+               "versus.json, report.md.")
+
+SCENE = "scenes/everyday.toml"
+RELAX_DT, RELAX_SKIN = 2e-3, 1.0
+
+
+def add_arguments(sp):
+    sp.add_argument("--dry-run", action="store_true", help="print the runs it would do, run nothing")
+    sp.add_argument("--results", default=str(ROOT / "results"), help="results root (default: results/)")
+    sp.add_argument("--anchor", default="654ed7a",
+                    help="the commit whose midpoint method is the yardstick (default 654ed7a)")
+    sp.add_argument("--anchor-binary", default="",
+                    help="that commit's hardrod, already built (default: build-anchor-REV/hardrod, "
+                         "built when missing)")
+    sp.add_argument("--configs", default="1e-3:1.0,2e-3:1.0",
+                    help="the exact method's dt:skin, comma-separated (default 1e-3:1.0,2e-3:1.0)")
+    sp.add_argument("--rounds", type=int, default=6, help="rounds in turns (default 6)")
+    sp.add_argument("--tau", type=float, default=6.0, help="simulated time of each run (default 6 tau)")
+    sp.add_argument("--relax-tau", type=float, default=40.0,
+                    help="relaxation from the lattice, exact method, dt 2e-3 (default 40 tau)")
+    sp.add_argument("--anchor-dt", type=float, default=1e-4, help="the anchor's dt (default 1e-4)")
+    sp.add_argument("--goal", type=float, default=0.05, help="the goal, ms per rod per tau (default 0.05)")
+    sp.add_argument("--anchor-cost", type=float, default=0.21,
+                    help="the anchor's cost when the goal was set, ms per rod per tau (default 0.21)")
+
+
+def parse_configs(text):
+    """[(dt, skin)] from 'dt:skin,...'; exits naming a bad entry."""
+    out = []
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        try:
+            dt, skin = (float(x) for x in item.split(":"))
+        except ValueError:
+            sys.exit(f"bench versus: --configs entry '{item}': expected dt:skin, e.g. 1e-3:1.0")
+        if not (dt > 0 and skin >= 0):
+            sys.exit(f"bench versus: --configs entry '{item}': dt must be > 0 and skin >= 0")
+        out.append((dt, skin))
+    if not out:
+        sys.exit("bench versus: --configs is empty")
+    return out
+
+
+def anchor_build(rev, dry_run):
+    """build-anchor-REV/hardrod: the commit's source from `git archive`, built without tests."""
+    base = ROOT / f"build-anchor-{rev}"
+    binary = base / "build" / "hardrod"
+    if binary.exists():
+        return binary
+    steps = [f"git -C {ROOT} archive {rev} | tar -x -C {base / 'src'}",
+             f"cmake -S {base / 'src'} -B {base / 'build'} -DCMAKE_BUILD_TYPE=Release "
+             "-DHARDROD_BUILD_TESTS=OFF -DHARDROD_BUILD_BENCH=OFF",
+             f"cmake --build {base / 'build'} -j {os.cpu_count() or 1} --target hardrod"]
+    if dry_run:
+        print("(dry run) would build the anchor: " + " && ".join(steps))
+        return binary
+    print(f"bench versus: building {relpath(binary)} from {rev}", flush=True)
+    (base / "src").mkdir(parents=True, exist_ok=True)
+    for step in steps:
+        if subprocess.run(step, shell=True, stdout=subprocess.DEVNULL).returncode != 0:
+            sys.exit(f"bench versus: the anchor build failed at: {step}")
+    return binary
+
+
+def exact_sets(dt, skin, steps):
+    return {"run.method": '"exact"', "run.dt": repr(dt), "run.skin": repr(skin),
+            "run.steps": str(steps), "run.equilibration_steps": "0"}
+
+
+def anchor_scene(anchor):
+    """The anchor's own everyday scene where it was built from source (a later scene may hold
+    keys it does not know), else this checkout's."""
+    own = anchor.parent.parent / "src" / SCENE
+    return str(own) if own.exists() else SCENE
+
+
+def plan(args, configs, anchor, start, out):
+    """The rounds' runs: the anchor first in each round, then each exact configuration."""
+    runs = []
+    for k in range(1, args.rounds + 1):
+        anchor_sets = {**file_start(start), "run.dt": repr(args.anchor_dt),
+                       "run.steps": str(round(args.tau / args.anchor_dt)), "run.equilibration_steps": "0"}
+        runs.append(Run(f"round{k}-anchor", anchor_scene(anchor), anchor_sets, 1,
+                        out / "runs" / f"round{k}-anchor", binary=anchor,
+                        meta={"round": k, "config": "anchor", "dt": args.anchor_dt}))
+        for dt, skin in configs:
+            name = f"round{k}-exact-dt{dt:g}-skin{skin:g}"
+            runs.append(Run(name, SCENE, {**file_start(start), **exact_sets(dt, skin, round(args.tau / dt))},
+                            1, out / "runs" / name, meta={"round": k, "config": f"exact dt {dt:g} skin {skin:g}",
+                                                         "dt": dt}))
+    return runs
+
+
+def relax_run(args, out):
+    steps = round(args.relax_tau / RELAX_DT)
+    sets = {**exact_sets(RELAX_DT, RELAX_SKIN, steps), "output.snapshot_interval": str(steps)}
+    return Run("relax", SCENE, sets, os.cpu_count() or 1, out / "runs" / "relax")
+
+
+def cost_us(result):
+    """us of CPU per rod per tau: the run's wall time of the steps on one thread, over dt."""
+    s = result.summary
+    return s["ns_per_particle_step"] * 1e-3 / result.run.meta["dt"] if result.ok else None
+
+
+def analyse(rows, configs_order, goal_ratio):
+    """Per configuration: the costs, the ratios to the anchor of the same round, their medians."""
+    anchor = {r["round"]: r["us_per_rod_tau"] for r in rows if r["config"] == "anchor"}
+    summary = []
+    for config in configs_order:
+        mine = [r for r in rows if r["config"] == config and r["us_per_rod_tau"] is not None]
+        ratios = [r["us_per_rod_tau"] / anchor[r["round"]] for r in mine
+                  if anchor.get(r["round"]) and config != "anchor"]
+        costs = [r["us_per_rod_tau"] for r in mine]
+        entry = {"config": config, "runs": len(mine),
+                 "median_us_per_rod_tau": statistics.median(costs) if costs else None,
+                 "min_us": min(costs, default=None), "max_us": max(costs, default=None)}
+        if config != "anchor":
+            med = statistics.median(ratios) if ratios else None
+            entry.update({"median_ratio": med, "min_ratio": min(ratios, default=None),
+                          "max_ratio": max(ratios, default=None),
+                          "goal_met": None if med is None else med <= goal_ratio})
+        summary.append(entry)
+    return summary
+
+
+def report(args, out, rows, summary, goal_ratio):
+    columns = ["round", "config", "us_per_rod_tau", "ratio", "pressure", "checksum", "error"]
+    write_csv(out / "versus.csv", rows, columns)
+    write_json(out / "versus.json", {"goal_ratio": goal_ratio, "anchor": args.anchor,
+                                     "rows": rows, "summary": summary})
+    table = markdown_table(
+        ["configuration", "runs", "us per rod per tau (median, range)", "ratio to the anchor (median, range)",
+         "goal met"],
+        [[s["config"], str(s["runs"]), f"{g(s['median_us_per_rod_tau'])} ({g(s['min_us'])}-{g(s['max_us'])})",
+          "" if s["config"] == "anchor" else f"{g(s['median_ratio'])} ({g(s['min_ratio'])}-{g(s['max_ratio'])})",
+          "" if s["config"] == "anchor" else {True: "yes", False: "no", None: "?"}[s["goal_met"]]]
+         for s in summary])
+    text = (f"The goal: {args.goal} ms per rod per tau against {args.anchor_cost} ms for {args.anchor}'s "
+            f"midpoint method at dt {args.anchor_dt:g}, a ratio of {goal_ratio:.3f}. In the anchor's "
+            f"terms the exact method's median ratio r costs r x {args.anchor_cost} ms.")
+    write_text(out / "report.md", "\n".join([report_header("The exact method in turns with the anchor"),
+                                             text, "", table, ""]))
+    print(table)
+    print(f"\n{text}\nbench versus: wrote {relpath(out)}/report.md")
+    return 1 if any(r.get("error") for r in rows) else 0
+
+
+def main(args):
+    configs = parse_configs(args.configs)
+    if args.rounds < 1 or args.tau <= 0 or args.relax_tau <= 0:
+        sys.exit("bench versus: --rounds must be >= 1, --tau and --relax-tau > 0")
+    anchor = Path(args.anchor_binary).resolve() if args.anchor_binary else None
+    if anchor is not None and not anchor.exists():
+        sys.exit(f"bench versus: --anchor-binary {anchor}: no such file")
+    ensure_built(args, [HARDROD])
+    anchor = anchor or anchor_build(args.anchor, args.dry_run)
+    out = make_outdir(args, "versus")
+    relax = relax_run(args, out)
+    runs = plan(args, configs, anchor, relax.out / "trajectory.h5", out)
+    if args.dry_run:
+        for r in [relax, *runs]:
+            print("(dry run) " + r.shell())
+        return 0
+    print(f"bench versus: relaxing {args.relax_tau:g} tau", flush=True)
+    if not execute(relax).ok:
+        sys.exit(f"bench versus: the relaxation failed (see {relpath(relax.out)}/hardrod.log)")
+    rows = []
+    for run in runs:  # in turns, one at a time: the ratios need the same machine state
+        r = execute(run)
+        row = {"round": run.meta["round"], "config": run.meta["config"], "us_per_rod_tau": cost_us(r),
+               "pressure": ((r.summary or {}).get("pressure_star") or {}).get("mean"), "checksum": (r.summary or {}).get("state_checksum"),
+               "error": None if r.ok else r.error}
+        rows.append(row)
+        print(f"  {run.name:<34} {g(row['us_per_rod_tau'])} us per rod per tau", flush=True)
+    goal_ratio = args.goal / args.anchor_cost
+    anchor_of = {r["round"]: r["us_per_rod_tau"] for r in rows if r["config"] == "anchor"}
+    for r in rows:
+        a = anchor_of.get(r["round"])
+        r["ratio"] = r["us_per_rod_tau"] / a if a and r["us_per_rod_tau"] and r["config"] != "anchor" else None
+    order = ["anchor", *[f"exact dt {dt:g} skin {skin:g}" for dt, skin in configs]]
+    return report(args, out, rows, analyse(rows, order, goal_ratio), goal_ratio)
