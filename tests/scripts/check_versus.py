@@ -3,7 +3,8 @@
 
 1. Bad --configs entries, rounds and a missing --anchor-binary are refused, naming the value.
 2. The dry run lists the relaxation, then per round the anchor's run first and one exact run
-   per configuration, every one from the relaxed state on one thread; it writes nothing.
+   per configuration, every one from the relaxed state on one thread; it writes nothing. The
+   spheres' runs are at N = 32768 with their own defaults.
 3. The analysis: each exact run's ratio is to the anchor of its own round, the medians are of
    those ratios, and the goal is judged on the median.
 """
@@ -40,22 +41,30 @@ def flags():
               "every timed run is on one thread, from the relaxed state")
         check("run.dt=0.002" in lines[3] and "run.skin=0.6" in lines[3] and '"exact"' in lines[3],
               "the exact runs follow, one per configuration")
+        status, text = run_cli(["versus", "--dry-run", "--system", "spheres", "--rounds", "1", *anchor, *results])
+        lines = [l for l in text.splitlines() if l.startswith("(dry run)")]
+        check(status == 0 and len(lines) == 3 and all("hard-spheres.toml" in l and "system.n=32768" in l
+                                                      for l in lines),
+              f"spheres: the relaxation, the anchor and one exact run, all at N = 32768 ({len(lines)})")
+        check("init.lattice" in lines[0] and not any("init.lattice" in l for l in lines[1:]) and
+              "run.skin=0.3" in lines[2] and "run.steps=1000" in lines[2],
+              "spheres: the lattice only for the relaxation; dt 2e-3, skin 0.3, 2 tau by default")
         check(not any(pathlib.Path(tmp).glob("versus-*")), "the dry run writes nothing")
 
 
 def analysis():
-    rows = [{"round": 1, "config": "anchor", "us_per_rod_tau": 200.0},
-            {"round": 1, "config": "exact", "us_per_rod_tau": 100.0},
-            {"round": 2, "config": "anchor", "us_per_rod_tau": 400.0},
-            {"round": 2, "config": "exact", "us_per_rod_tau": 100.0},
-            {"round": 3, "config": "anchor", "us_per_rod_tau": 300.0},
-            {"round": 3, "config": "exact", "us_per_rod_tau": 60.0}]
+    rows = [{"round": 1, "config": "anchor", "us_per_particle_tau": 200.0},
+            {"round": 1, "config": "exact", "us_per_particle_tau": 100.0},
+            {"round": 2, "config": "anchor", "us_per_particle_tau": 400.0},
+            {"round": 2, "config": "exact", "us_per_particle_tau": 100.0},
+            {"round": 3, "config": "anchor", "us_per_particle_tau": 300.0},
+            {"round": 3, "config": "exact", "us_per_particle_tau": 60.0}]
     summary = {s["config"]: s for s in versus.analyse(rows, ["anchor", "exact"], 0.24)}
     e = summary["exact"]
     check(abs(e["median_ratio"] - 0.25) < 1e-12 and abs(e["min_ratio"] - 0.2) < 1e-12,
           f"ratios to each round's anchor, their median ({e})")
     check(e["goal_met"] is False, "the goal is judged on the median ratio (0.25 > 0.24)")
-    check(summary["anchor"]["median_us_per_rod_tau"] == 300.0 and "median_ratio" not in summary["anchor"],
+    check(summary["anchor"]["median_us_per_particle_tau"] == 300.0 and "median_ratio" not in summary["anchor"],
           "the anchor's own costs, without a ratio")
 
 
