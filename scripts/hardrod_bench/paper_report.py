@@ -101,7 +101,8 @@ def size_row(n, a, verdict):
 
 def markdown(rows, args):
     lines = ["# The paper's Table 1 reproduced (`scripts/bench paper`)", "",
-             f"rho* = 0.5, L/D = 5, dt = {args.dt:g}, {args.equil_tau:g} tau equilibration from the aligned "
+             f"rho* = 0.5, L/D = 5, {getattr(args, 'method', 'midpoint')} method, dt = {args.dt:g}, "
+             f"{args.equil_tau:g} tau equilibration from the aligned "
              "lattice; K* = beta D K. Errors: S and P*, the larger of the runs' combined block errors and "
              "the seeds' spread; K, the larger of the fit's (bin variances from the spread over seeds, "
              "inflated by sqrt(chi2/dof) when above 1) and the spread of the seeds' own fits "
@@ -192,7 +193,7 @@ def report(args, runs):
         rows.append(size_row(n, a, equilibration_verdict([run_equilibration(d) for d in done])))
     if not rows:
         return 1
-    result = {"dt": args.dt, "equilibration_tau": args.equil_tau, "sizes": rows, "paper": PAPER}
+    result = {"method": getattr(args, "method", "midpoint"), "dt": args.dt, "equilibration_tau": args.equil_tau, "sizes": rows, "paper": PAPER}
     by_n = {r["N"]: r for r in rows}
     if 2304 in by_n and 18432 in by_n:
         result["S_2304_minus_S_18432"] = difference(by_n[2304]["S"], by_n[18432]["S"])
