@@ -9,7 +9,7 @@ Writes answer.json, answer.md and answer.png; `--analyze` re-reads an earlier re
 import math
 from pathlib import Path
 
-from .common import (HARDROD, NPROC, busy_warning, common_arguments, ensure_built, g, has_plotting, make_outdir,
+from .common import (DEFAULT_DT, HARDROD, NPROC, busy_warning, common_arguments, ensure_built, g, has_plotting, make_outdir,
                      markdown_table, pm, relpath, report_header, write_json, write_text)
 from .outputs import load_json, production_t_s_p
 from .runner import Result, Run, print_dry_run, run_all
@@ -114,7 +114,7 @@ def main(args):
                                   "" if summary else f"no summary.json in {relpath(d)}"))
         return answer_report(args, out, results)
     if args.dt is None:
-        args.dt = 1e-3 if args.method == "exact" else 1e-4
+        args.dt = DEFAULT_DT[args.method]
     if args.sample_interval is None:
         args.sample_interval = max(1, int(round(0.1 / args.dt)))
     out = make_outdir(args, "answer")

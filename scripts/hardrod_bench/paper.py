@@ -21,7 +21,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
-from .common import HARDROD, ROOT
+from .common import DEFAULT_DT, HARDROD, ROOT
 from .outputs import load_json
 
 # The two systems of the paper's finite-size study that fit on a workstation. kmax reaches the
@@ -171,7 +171,7 @@ def add_arguments(sp):
 
 def main(args):
     if args.dt is None:
-        args.dt = 1e-3 if args.method == "exact" else 1e-4
+        args.dt = DEFAULT_DT[args.method]
     if args.out is None:
         args.out = str(ROOT / "results" / ("paper-exact" if args.method == "exact" else "paper"))
     args.sizes = [int(s) for s in str(args.sizes).split(",") if s.strip()]

@@ -22,7 +22,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from .common import (HARDROD, ROOT, ensure_built, g, make_outdir, markdown_table, relpath,
+from .common import (HARDROD, ROOT, common_arguments, ensure_built, g, make_outdir, markdown_table, relpath,
                      report_header, write_csv, write_json, write_text)
 from .runner import Run, execute, file_start
 
@@ -51,8 +51,7 @@ SYSTEMS = {
 
 
 def add_arguments(sp):
-    sp.add_argument("--dry-run", action="store_true", help="print the runs it would do, run nothing")
-    sp.add_argument("--results", default=str(ROOT / "results"), help="results root (default: results/)")
+    common_arguments(sp, jobs=False)
     sp.add_argument("--system", default="nematic", choices=sorted(SYSTEMS),
                     help="the everyday nematic (default) or hard spheres at N = 32768")
     sp.add_argument("--anchor", default="654ed7a",
