@@ -332,7 +332,8 @@ struct Partition {
   void first(std::vector<std::uint32_t> &parent, const std::vector<std::uint32_t> &involved,
              const std::vector<Candidate> &candidates, bool screened,
              std::vector<std::uint32_t> &group_of) {
-    std::vector<std::size_t> size;
+    std::vector<std::size_t> &size = scratch_;
+    size.clear();
     for (const std::uint32_t b : involved) {
       const std::uint32_t r = set_root(parent, b);
       if (r == b) {
@@ -347,7 +348,8 @@ struct Partition {
     body_start.assign(groups + 1, 0);
     for (std::size_t g = 0; g < groups; ++g) body_start[g + 1] = body_start[g] + size[g];
     bodies.resize(body_start[groups]);
-    std::vector<std::size_t> at(body_start.begin(), body_start.end() - 1);
+    std::vector<std::size_t> &at = scratch_;
+    at.assign(body_start.begin(), body_start.end() - 1);
     for (const std::uint32_t b : involved) bodies[at[group_of[b]]++] = b;
     cand_start.assign(groups + 1, 0);
     for (const Candidate &c : candidates) ++cand_start[group_of[c.i] + 1];
@@ -364,7 +366,7 @@ struct Partition {
     }
     alive.assign(groups, 1);
     stats.resize(groups);
-    flown.resize(groups);
+    keep_flown(groups);
   }
   // Appends the clusters of `members` (sorted by (root, body)) with their candidates.
   void add(const std::vector<std::pair<std::uint32_t, std::uint32_t>> &members,
@@ -390,8 +392,17 @@ struct Partition {
       eventful.push_back(live);
     }
     stats.resize(alive.size());
-    flown.resize(alive.size());
+    keep_flown(alive.size());
   }
+
+ private:
+  // Room for the flown bodies of `groups` clusters. Never shrunk: a cluster's list keeps its
+  // storage from step to step (solve clears it before the pass), where a shrink and a regrowth
+  // would free it and allocate it again; a list past the step's clusters is never read.
+  void keep_flown(std::size_t groups) {
+    if (flown.size() < groups) flown.resize(groups);
+  }
+  std::vector<std::size_t> scratch_;  // first(): the clusters' sizes, then their fill points
 };
 
 // The clusters' storage, kept from step to step (first() resets it): a step then allocates
