@@ -73,13 +73,16 @@ void sort_bodies_by_cell(CellList &cells, Particles &p, std::size_t count, std::
 // without it, from minimum_image, so the pairs and their slacks are those of that test alone.
 struct PairSearch {
   PairSearch(const Particles &p, const Box &box, const Shape &shape, const CellList &cl,
-             double skin);
+             double skin, std::size_t owned);
   const Particles &p;
   const Box &box;
   const CellList &cl;
   Vec3 inverse;
   double diameter, h;
   bool rods, unique_images;
+  // Bodies [0, owned) are this rank's own, the rest shadows: a pair of two shadows is not
+  // searched (keep_first_ring would drop it).
+  std::uint32_t owned;
   std::array<double, 3> side;
   double reach;          // segment distance kept in the list
   double centre_reach2;  // centres further apart than (L + reach) cannot be within reach
@@ -103,7 +106,7 @@ PairSearch::CellOrdered &kept_ordered() {
 }
 
 PairSearch::PairSearch(const Particles &p, const Box &box, const Shape &shape, const CellList &cl,
-                       double skin)
+                       double skin, std::size_t owned)
     : p(p),
       box(box),
       cl(cl),
@@ -112,6 +115,7 @@ PairSearch::PairSearch(const Particles &p, const Box &box, const Shape &shape, c
       h(shape.half_length()),
       rods(!shape.is_sphere()),
       unique_images(cl.full_stencil),
+      owned(static_cast<std::uint32_t>(owned)),
       side{box.length.x, box.length.y, box.length.z},
       reach(shape.diameter + skin),
       ordered(kept_ordered()) {
@@ -339,24 +343,30 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
 }
 
 // Listed branch-free from keep[from, ncand) into w.near, but eight at a time past the blocks
-// where none is kept. Returns how many are kept.
-std::uint32_t list_kept(CellScratch &w, std::uint32_t from) {
+// where none is kept; with OwnedOnly, only the candidates below s.owned (a shadow's partners).
+// Returns how many are kept.
+template <bool OwnedOnly>
+std::uint32_t list_kept(const PairSearch &s, CellScratch &w, std::uint32_t from) {
   const std::size_t ncand = w.cand.size();
   const std::uint64_t *__restrict k = w.keep.data();
   std::uint32_t *__restrict near = w.near.data();
   const std::uint32_t *__restrict cand = w.cand.data();
+  const std::uint32_t owned = s.owned;
+  const auto keeps = [&](std::size_t q) {
+    return OwnedOnly ? k[q] & static_cast<std::uint64_t>(cand[q] < owned) : k[q];
+  };
   std::size_t kept = 0, q = from;
   for (; q + 8 <= ncand; q += 8) {
     const std::uint64_t *__restrict b = k + q;
     if ((b[0] | b[1] | b[2] | b[3] | b[4] | b[5] | b[6] | b[7]) == 0) continue;
     for (std::size_t t = 0; t < 8; ++t) {
       near[kept] = cand[q + t];
-      kept += b[t];
+      kept += keeps(q + t);
     }
   }
   for (; q < ncand; ++q) {
     near[kept] = cand[q];
-    kept += k[q];
+    kept += keeps(q);
   }
   return static_cast<std::uint32_t>(kept);
 }
@@ -389,7 +399,7 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
     k[q] = (dx * dx + dy * dy + dz * dz < gather_reach2) & !apart;
   }
   // In the nematic 12 blocks of eight in 13 keep none: one candidate in ~65 is kept.
-  return list_kept(w, a + 1);
+  return w.cand[a] < s.owned ? list_kept<false>(s, w, a + 1) : list_kept<true>(s, w, a + 1);
 }
 
 // Spheres with unique images: list_pairs' exact test (the minimum image of the raw centres,
@@ -422,9 +432,17 @@ std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t 
   if (w.near.size() < ncand) w.near.resize(ncand);
   std::uint32_t *__restrict at_q = w.near.data();
   std::uint32_t near = 0;
-  for (std::uint32_t q = a + 1; q < ncand; ++q) {
-    at_q[near] = q;
-    near += static_cast<std::uint32_t>(within[q]);
+  if (i < s.owned) {
+    for (std::uint32_t q = a + 1; q < ncand; ++q) {
+      at_q[near] = q;
+      near += static_cast<std::uint32_t>(within[q]);
+    }
+  } else {  // a shadow: its pairs with owned bodies only
+    const std::uint32_t *__restrict cand = w.cand.data();
+    for (std::uint32_t q = a + 1; q < ncand; ++q) {
+      at_q[near] = q;
+      near += static_cast<std::uint32_t>(within[q]) & static_cast<std::uint32_t>(cand[q] < s.owned);
+    }
   }
   ListedPair *__restrict out = mine.room(near);
   std::size_t kept = 0;
@@ -493,11 +511,22 @@ void list_pairs(const PairSearch &s, std::uint32_t i, const std::uint32_t *near,
   mine.count += listed;
 }
 
-// The pairs of cell c's bodies with the later candidates, appended to `mine`.
+// The position after the last owned body among the candidates (0 if none): a shadow at or
+// past it has no pair to look for.
+std::uint32_t owned_end(const PairSearch &s, const CellScratch &w) {
+  auto q = static_cast<std::uint32_t>(w.cand.size());
+  while (q > 0 && w.cand[q - 1] >= s.owned) --q;
+  return q;
+}
+
+// The pairs of cell c's bodies with the later candidates, appended to `mine`; no pair of two
+// shadows.
 void search_cell(const PairSearch &s, int c, CellScratch &w, FoundPairs &mine) {
   const std::uint32_t own = gather_cell(s, c, w);
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
+  const std::uint32_t last = owned_end(s, w);
   for (std::uint32_t a = 0; a < own; ++a) {
+    if (w.cand[a] >= s.owned && a + 1 >= last) continue;  // a shadow, only shadows after it
     if (s.unique_images && !s.rods) {
       list_spheres(s, w, a, mine);
       continue;
@@ -507,7 +536,10 @@ void search_cell(const PairSearch &s, int c, CellScratch &w, FoundPairs &mine) {
     if (s.unique_images) {
       kept = preselect_rods(s, w, a);
     } else {
-      for (std::uint32_t q = a + 1; q < ncand; ++q) w.near[kept++] = w.cand[q];
+      const std::uint32_t limit =
+          w.cand[a] < s.owned ? std::numeric_limits<std::uint32_t>::max() : s.owned;
+      for (std::uint32_t q = a + 1; q < ncand; ++q)
+        if (w.cand[q] < limit) w.near[kept++] = w.cand[q];
     }
     if (s.rods)
       list_pairs<true>(s, w.cand[a], w.near.data(), kept, w, mine);
@@ -574,7 +606,7 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   const double reach = shape.diameter + list.skin;
   build_cell_list(list.cells, p, count, box, shape.length + reach, true);
   sort_bodies_by_cell(list.cells, p, count, owned);
-  find_pairs(PairSearch(p, box, shape, list.cells, list.skin), list.pairs);
+  find_pairs(PairSearch(p, box, shape, list.cells, list.skin, owned), list.pairs);
   list.active = count;
   if (count > owned) keep_first_ring(list, p, count, owned);
   list.watched_steps = 0;
