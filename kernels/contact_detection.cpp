@@ -171,7 +171,8 @@ void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &bat
     fj.w = p.angular_velocity(j);
     sc = batch.closest(q);
   }
-  c.apart = apart_in_flight(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin);
+  c.apart = h > 0.0 ? apart_after_screen(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin)
+                    : apart_in_flight(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin);
 }
 
 // The due pairs pairs[due[0, n)] measured a batch at a time (due_distances), and each pair's

@@ -362,7 +362,12 @@ bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const Segm
     const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
     return norm(r + s * u) - D > margin;
   }
-  if (apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin)) return true;
+  return apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin) ||
+         apart_after_screen(a, b, r, c, h, D, t_to, margin);
+}
+
+bool apart_after_screen(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
+                        double h, double D, double t_to, double margin) {
   const PairState st = pair_state_from(c, r, a.e, b.e, a, b, h, D);
   if (!finite_state(st) || !(st.gap > margin)) return false;
   return contact_free_step(st, a, b, h, -margin, t_to).clear;

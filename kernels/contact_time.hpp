@@ -83,5 +83,10 @@ ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, 
 inline constexpr double kApartMargin = 1e-9;
 bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
                      double h, double D, double t_to, double margin);
+// Its refined test alone, for rods whose first screen (apart_along_gap, gap_bound.hpp) failed
+// already: the detection runs that screen over a batch in vector lanes (the same bits), and
+// its failures come here. apart_in_flight = apart_along_gap || apart_after_screen.
+bool apart_after_screen(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
+                        double h, double D, double t_to, double margin);
 
 }  // namespace hardrod
