@@ -1,6 +1,7 @@
 // The exact method's collisions within a step (see the header): clusters of candidates, the
 // event-driven pass through one cluster, the check that no cluster's overrun reaches another,
-// and the fallback for a cluster past the event cap.
+// and the fallback for a cluster past the event cap; the entry points, which hand a step to the
+// one queue (exact_queue.cpp) when asked.
 #include "kernels/exact_collisions.hpp"
 
 #include <omp.h>
@@ -11,37 +12,14 @@
 #include <limits>
 
 #include "kernels/contact_detection.hpp"
+#include "kernels/exact_events.hpp"
 #include "kernels/union_find.hpp"
 
 namespace hardrod {
 
 namespace {
 
-constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-
-// An upper bound on how fast any point of a body moves: |v| + L/2 |w|, with the relative
-// 1e-12 that refresh_motion's growth carries for the rounding.
-double point_speed(const Flight &f, double h) {
-  return (norm(f.v) + h * norm(f.w)) * (1.0 + 1e-12);
-}
-
-// A predicted contact (or, with `resume`, a search that used up its iterations and goes on
-// from t) of the bodies in slots a and b, valid while neither has changed since.
-struct Event {
-  double t = 0.0;
-  std::int64_t id_a = 0, id_b = 0;  // canonical order: id_a < id_b
-  std::uint32_t a = 0, b = 0;
-  std::uint32_t version_a = 0, version_b = 0;
-  bool resume = false;
-};
-// Earliest first; ties by ids, so the order does not depend on the order of insertion.
-struct Later {
-  bool operator()(const Event &x, const Event &y) const {
-    if (x.t != y.t) return x.t > y.t;
-    if (x.id_a != y.id_a) return x.id_a > y.id_a;
-    return x.id_b > y.id_b;
-  }
-};
+using namespace exact_events;
 
 // A candidate as the clusters read it: its bodies (c.i has the lower id), its place in the step's
 // array of candidates (their canonical order), and whether it needs its first search (`live`:
@@ -53,24 +31,6 @@ struct Edge {
   std::uint32_t at = 0;
   bool live = true;
 };
-
-// What every cluster reads.
-struct Context {
-  const Particles &p;
-  const Box &box;
-  Vec3 inverse;
-  const Shape &shape;
-  const NeighborList &list;
-  const std::vector<std::uint32_t> &group_of;  // by body: its cluster, kNone if none
-  double dt;
-  const ExactSettings &settings;
-  // By body: a flown body's overrun, written as its cluster lands (ExactScratch::overrun; a
-  // cluster's bodies are its own, so threads write apart), else 0.
-  double *overrun;
-};
-
-// Candidate::apart holds: the detection's margin is above the search's tolerance.
-bool screened(const ExactSettings &settings) { return settings.contact.tolerance < kApartMargin; }
 
 // Up to this many bodies a sphere cluster predicts a changed body against every other one
 // (predict_pairs_of). Hard spheres at packing fraction 0.45, N = 32768, in turns against the
@@ -155,14 +115,9 @@ class ClusterPass {
     std::push_heap(queue_.begin(), queue_.end(), Later());
   }
 
-  // Slot s flown on to time t (its flight then starts there). A sphere's axis does not turn,
-  // as in its free flight (drift): the same bits, without the rotation's arithmetic.
+  // Slot s flown on to time t (fly_on).
   void fly_to(std::uint32_t s, double t) {
-    Flight &f = flight_[s];
-    moved_[s] += point_speed(f, cx_.shape.half_length()) * (t - f.t0);
-    f.x = f.position(t);
-    if (cx_.shape.half_length() > 0.0) f.e = f.axis(t);
-    f.t0 = t;
+    fly_on(flight_[s], moved_[s], t, cx_.shape.half_length());
   }
 
   // The elastic, frictionless impulse of slots a and b touching at t (a has the lower id),
@@ -170,37 +125,21 @@ class ClusterPass {
   void collide(std::uint32_t a, std::uint32_t b, double t) {
     fly_to(a, t);
     fly_to(b, t);
-    Flight &fa = flight_[a];
-    Flight &fb = flight_[b];
-    const Vec3 xb = image_of(a, b).x;
-    const Vec3 r = xb - fa.x;
-    const double h = cx_.shape.half_length();
-    const SegmentClosest sc = segment_closest_inline(r, fa.e, h, fb.e, h);
-    Contact c;
-    contact_geometry(sc, r, fa.e, fb.e, cx_.shape, c);
-    const double u = dot(c.normal, fa.v - fb.v) + dot(fa.w, c.arm_i) - dot(fb.w, c.arm_j);
-    if (u < 0.0) {
-      const double inv_m = 1.0 / cx_.shape.mass, inv_i = cx_.shape.inverse_inertia();
-      const double j = -2.0 * u / c.inverse_mass;
-      fa.v = fa.v + (j * inv_m) * c.normal;
-      fb.v = fb.v - (j * inv_m) * c.normal;
-      fa.w = fa.w + (j * inv_i) * c.arm_i;
-      fb.w = fb.w - (j * inv_i) * c.arm_j;
-      const double w = j * dot(c.normal, fa.x - xb);
-      stats_.virial.add(w);
-      virial_[a].add(w);
-      ++stats_.collisions;
-      ++collisions_[a];
-    } else {
+    const Touch touch = give_impulse(flight_[a], flight_[b], image_of(a, b).x, cx_.shape);
+    if (!touch.closing) {
       // A graze: the search saw the pair closing, this geometry (rounded differently) does
       // not. Nothing changes; the pair is searched again from a moment later, so that the
       // pass always moves on (the gap can shrink by at most ~1e-12 D meanwhile). A pair that
       // overlaps already (a start file from the midpoint method) and recedes is left to part.
       ++stats_.grazes;
-      if (std::sqrt(sc.dist2) - cx_.shape.diameter > -cx_.settings.contact.tolerance)
+      if (touch.gap > -cx_.settings.contact.tolerance)
         predict(a, b, std::min(cx_.dt, t + 1e-9 * cx_.dt), true);
       return;
     }
+    stats_.virial.add(touch.virial);
+    virial_[a].add(touch.virial);
+    ++stats_.collisions;
+    ++collisions_[a];
     ++version_[a];
     ++version_[b];
     predict_pairs_of(a, kNone, t);
@@ -461,11 +400,6 @@ void solve(const Context &cx, Partition &pt, std::size_t from) {
   }
 }
 
-// How far body b may have moved in the step: its free flight's bound, and its overrun.
-double step_reach(const Particles &p, const std::vector<double> &overrun, std::uint32_t b) {
-  return 2.0 * p.grow[b] + overrun[b];
-}
-
 // A flown body with an overrun, and the label of its cluster.
 template <class Label>
 struct Overrunner {
@@ -541,16 +475,8 @@ class OverrunCheck {
   }
 
   void check(const Queued &at) const {
-    const ListedPair &pair = list_.pairs[at.pair];
-    const double *bound = p_.motion_bound.data();
-    const double moved =
-        bound[pair.first] + overrun_[pair.first] + bound[pair.second] + overrun_[pair.second];
-    if (moved < pair.recheck_at) return;
-    Contact c;
-    double d = 0.0;
-    const double reach = step_reach(p_, overrun_, at.body) + step_reach(p_, overrun_, at.other) +
-                         kDistanceSafetyMargin;
-    if (make_contact(p_, box_, inverse_, shape_, at.body, at.other, c, d, reach))
+    if (overrun_could_touch(p_, box_, inverse_, shape_, list_.pairs[at.pair], at.body,
+                            overrun_[at.body], at.other, overrun_[at.other]))
       out_.emplace_back(at.body, at.other);
   }
 
@@ -713,7 +639,16 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
   flown.clear();
   stats.candidates = static_cast<long long>(candidates.size());
   stats.apart = count_apart(candidates);
-  if (candidates.empty()) return stats;
+  if (candidates.empty()) {
+    stats.queued = settings.one_queue;
+    return stats;
+  }
+  if (settings.one_queue) {
+    scratch.label.resize(list.active, kNone);
+    const Context cx{p,        box,    box.inverse_length(), shape, list, scratch.label, dt,
+                     settings, nullptr};
+    if (solve_in_one_queue(cx, candidates, scratch, stats, flown)) return stats;
+  }
   Partition &pt = step_partition();
   first_partition(list, candidates, {}, screened(settings), scratch, pt);
   const Context cx{p,  box,      box.inverse_length(),  shape, list, scratch.label,
@@ -787,6 +722,8 @@ ExactStats &ExactStats::operator+=(const ExactStats &o) {
   regrown += o.regrown;
   fallbacks += o.fallbacks;
   grazes += o.grazes;
+  queued += o.queued;
+  extra_pairs += o.extra_pairs;
   virial += o.virial;
   return *this;
 }

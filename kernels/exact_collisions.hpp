@@ -27,9 +27,18 @@
 // touching pairs solved together by the simultaneous solver (contact_resolution.hpp) at that
 // time, once; this is counted (ExactStats::fallbacks).
 //
+// One queue (ExactSettings::one_queue, what one thread on one rank uses): the same events, no
+// clusters. The whole step's events are taken from one queue by time (ties by ids) on one
+// thread; a body whose velocity changes is predicted again against its candidate partners,
+// and, where its new velocity could carry it beyond its free flight's bound, its other listed
+// pairs that its overrun could bring to touch join them (exact_queue.cpp). A prediction
+// depends only on the two bodies' flights, so the end states are the clusters' to the bit
+// (tests/kernels/test_exact_collisions.cpp compares them). A step with a body in more than
+// twice events_per_body events is solved by clusters instead, whose fallback it is.
+//
 // Reads the bodies (their state at the step's start is never written here); writes the
 // `flown` list: the end states of the bodies whose velocity changed, which land_flown writes
-// over the free flight's (fly_step). Threads take whole clusters.
+// over the free flight's (fly_step). Threads take whole clusters; the one queue runs on one.
 #pragma once
 
 #include <cstdint>
@@ -51,6 +60,8 @@ struct ExactSettings {
   ContactTimeSettings contact;  // the root search's tolerance (1e-10 D) and iteration cap
   long events_per_body = 100;   // events a cluster may take per body in one step
   SolverSettings solver;        // the fallback's simultaneous solver
+  // collide_exactly: the step's events in one queue rather than by cluster (the same bits).
+  bool one_queue = false;
 };
 
 // One step's counts: collisions, virial, clusters and fallbacks of the final partition; the
@@ -61,7 +72,7 @@ struct ExactStats {
   long long clusters = 0;         // clusters of candidates
   long long largest_cluster = 0;  // bodies in the largest
   long long collisions = 0;       // impulses given
-  long long events = 0;           // events taken from the clusters' queues
+  long long events = 0;           // events taken from the queues (valid, not stale)
   long long searches = 0;         // first-contact searches
   long long repredictions = 0;    // of those, after a velocity changed within the step
   long long root_iterations = 0;  // gap evaluations of the searches
@@ -69,6 +80,8 @@ struct ExactStats {
   long long regrown = 0;          // joins of clusters that a body's overrun could reach
   long long fallbacks = 0;        // clusters past the event cap (simultaneous solver)
   long long grazes = 0;           // contacts found closing that the impulse saw receding
+  long long queued = 0;           // steps whose events ran in one queue (ExactSettings::one_queue)
+  long long extra_pairs = 0;      // the queue's pairs a body's overrun could bring to touch
   ExactSum virial;                // sum of J n . (x_i - x_j) at the touching configuration
 
   // Sums, and the larger largest_cluster.
@@ -92,11 +105,13 @@ using BodyPair = std::pair<std::uint32_t, std::uint32_t>;
 
 // Scratch kept between steps (per-body arrays over the list's bodies).
 struct ExactScratch {
-  std::vector<std::uint32_t> parent;    // union-find over bodies; UINT32_MAX: not involved
-  std::vector<std::uint32_t> label;     // the cluster (its index) of an involved body
-  std::vector<double> overrun;          // of a flown body, else 0
+  std::vector<std::uint32_t> parent;  // union-find over bodies; UINT32_MAX: not involved
+  std::vector<std::uint32_t>
+      label;                    // the cluster (its index) of an involved body; the queue's slot
+  std::vector<double> overrun;  // of a flown body, else 0
   std::vector<std::uint32_t> involved;  // the bodies of a step's candidates and joins
   std::vector<std::uint64_t> involved_bits;
+  std::vector<std::uint32_t> first_edge;  // the one queue's: a body's first partner (kNone: none)
 };
 
 ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shape,

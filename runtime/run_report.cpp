@@ -183,9 +183,9 @@ nlohmann::json exact_json(Simulation &sim) {
   const ExactRecord &mine = sim.exact_record();
   ExactRecord r = mine;
   ExactStats &t = r.totals;
-  for (long long *v :
-       {&t.candidates, &t.apart, &t.clusters, &t.collisions, &t.events, &t.searches,
-        &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown, &t.fallbacks, &t.grazes})
+  for (long long *v : {&t.candidates, &t.apart, &t.clusters, &t.collisions, &t.events, &t.searches,
+                       &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown,
+                       &t.fallbacks, &t.grazes, &t.queued, &t.extra_pairs})
     *v = comm.sum("summary", *v);
   t.largest_cluster = static_cast<long long>(
       comm.max("summary", {static_cast<double>(mine.totals.largest_cluster)})[0]);
@@ -205,6 +205,8 @@ nlohmann::json exact_json(Simulation &sim) {
           {"regrown", t.regrown},
           {"fallbacks", t.fallbacks},
           {"grazes", t.grazes},
+          {"queued_steps", t.queued},
+          {"extra_pairs", t.extra_pairs},
           {"rebuilt_in_step", r.rebuilt_in_step},
           {"collisions_per_step", per_step(t.collisions)},
           {"events_per_step", per_step(t.events)},
@@ -354,13 +356,17 @@ void print_results(const RunState &st, const nlohmann::json &summary, const fs::
                  : "not sure (first and last third of production differ)");
   if (summary.contains("exact")) {
     const nlohmann::json &x = summary["exact"];
+    const long long queued = x["queued_steps"].get<long long>();
     fmt::print(
         "  exact collisions         {:.4g} per step; {:.4g} searches ({:.3g} gap evaluations "
-        "each), {:.4g} re-predictions per step; largest cluster {}; fallbacks {}\n",
+        "each), {:.4g} re-predictions per step; {}; fallbacks {}\n",
         x["collisions_per_step"].get<double>(),
         x["searches"].get<double>() / std::max(1.0, x["steps"].get<double>()),
         x["root_iterations_per_search"].get<double>(), x["repredictions_per_step"].get<double>(),
-        x["largest_cluster"].get<long long>(), x["fallbacks"].get<long long>());
+        queued == x["steps"].get<long long>()
+            ? std::string("events in one queue")
+            : fmt::format("largest cluster {}", x["largest_cluster"].get<long long>()),
+        x["fallbacks"].get<long long>());
   }
   fmt::print("  speed                    {:.1f} ns per particle-step, {:.3g} particle-steps/s\n",
              summary["ns_per_particle_step"].get<double>(),

@@ -1,8 +1,8 @@
 // The exact method's collisions within one step (kernels/exact_collisions.hpp), on bodies set
 // up by hand: the contact time and the impulse of a head-on pair against the closed form, the
 // virial at contact, a chain whose velocity changes reach bodies outside the first clusters,
-// the event cap's fallback, and the pieces several ranks use (collide_once, overrun_reaches)
-// against the one-rank loop.
+// the event cap's fallback, the pieces several ranks use (collide_once, overrun_reaches)
+// against the one-rank loop, and the one queue against the clusters.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -287,6 +287,77 @@ TEST(ExactCollisions, TheCandidatesOrderDoesNotChangeTheStep) {
   }
   EXPECT_GT(collisions, 20) << "the test must exercise collisions";
   EXPECT_GT(regrown, 0) << "the test must exercise joins";
+}
+
+// One rank takes a step's events in one queue (ExactSettings::one_queue): the same events as
+// the clusters', so the same end states to the bit. A Newton's cradle whose third body only a
+// body's overrun brings in (an extra pair), a hot, dense hard-sphere gas at a long step (the
+// clusters join), a relaxed nematic at a long step, and a row past the event cap, where the
+// queue gives up and the clusters' fallback solves the step.
+TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
+  const Shape sphere{.length = 0.0};
+  Scene hot = testing::hard_spheres(10, 0.30, 1e-3);
+  hot.method = kExact;
+  hot.temperature = 25.0;
+  Simulation hot_relaxed(hot);
+  hot_relaxed.advance(100);
+  Scene rods = testing::small_nematic(1e-3);
+  rods.method = kExact;
+  Simulation rods_relaxed(rods);
+  rods_relaxed.advance(100);
+  const struct {
+    Particles p;
+    Box box;
+    Shape shape;
+    double dt;
+    long events_per_body;
+  } cases[] = {
+      {spheres_on_x({5.0, 6.0005, 7.03}, {1.0, 0.0, 0.0}), Box{{30.0, 20.0, 20.0}}, sphere, 0.05,
+       100},
+      {hot_relaxed.particles(), hot.box, sphere, 4e-3, 100},
+      {rods_relaxed.particles(), rods.box, rods.shape, 4e-3, 100},
+      {spheres_on_x({5.0, 6.0 + 1e-11, 7.0 + 2e-11, 8.0 + 3e-11}, {1.0, 0.0, 0.0, 0.0}),
+       Box{{30.0, 20.0, 20.0}}, sphere, 0.01, 0},
+  };
+  long long extra = 0, collisions = 0, queued = 0, fallbacks = 0;
+  for (const auto &c : cases) {
+    Particles p = c.p;
+    NeighborList list;
+    list.skin = 1.0;
+    build_neighbor_list(list, p, p.size(), c.box, c.shape);
+    refresh_motion(p, p.size(), c.shape, 0.5 * c.dt);
+    grow_bounds(p, p.size());
+    std::vector<Candidate> candidates;
+    detect_contacts(p, c.box, c.shape, list, candidates, StepAhead{p.grow.data(), c.dt});
+    ExactSettings by_cluster;
+    by_cluster.events_per_body = c.events_per_body;
+    ExactSettings in_queue = by_cluster;
+    in_queue.one_queue = true;
+    ExactScratch scratch;
+    std::vector<FlownBody> want, got;
+    const ExactStats a =
+        collide_exactly(p, c.box, c.shape, list, candidates, c.dt, by_cluster, scratch, want);
+    const ExactStats b =
+        collide_exactly(p, c.box, c.shape, list, candidates, c.dt, in_queue, scratch, got);
+    EXPECT_EQ(a.queued, 0);
+    EXPECT_EQ(b.collisions, a.collisions);
+    EXPECT_EQ(b.fallbacks, a.fallbacks);
+    EXPECT_EQ(b.virial.raw(), a.virial.raw());
+    const auto by_body = [](const FlownBody &x, const FlownBody &y) { return x.body < y.body; };
+    std::sort(want.begin(), want.end(), by_body);
+    std::sort(got.begin(), got.end(), by_body);
+    ASSERT_EQ(got.size(), want.size());
+    for (std::size_t k = 0; k < got.size(); ++k)
+      EXPECT_TRUE(same_bits(got[k], want[k])) << "body " << got[k].body;
+    extra += b.extra_pairs;
+    collisions += b.collisions;
+    queued += b.queued;
+    fallbacks += b.fallbacks;
+  }
+  EXPECT_EQ(queued, 3) << "the row past the cap must leave the queue";
+  EXPECT_EQ(fallbacks, 1);
+  EXPECT_GE(extra, 2) << "the test must exercise pairs a body's overrun brings in";
+  EXPECT_GT(collisions, 40) << "the test must exercise collisions";
 }
 
 }  // namespace

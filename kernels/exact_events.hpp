@@ -1,0 +1,128 @@
+// What the exact method's two ways through a step's events share (exact_collisions.hpp): the
+// clusters' passes (exact_collisions.cpp) and the one queue (exact_queue.cpp). Internal to
+// those two files.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "kernels/contact_detection.hpp"
+#include "kernels/exact_collisions.hpp"
+
+namespace hardrod::exact_events {
+
+inline constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+// An upper bound on how fast any point of a body moves: |v| + L/2 |w|, with the relative
+// 1e-12 that refresh_motion's growth carries for the rounding.
+inline double point_speed(const Flight &f, double h) {
+  return (norm(f.v) + h * norm(f.w)) * (1.0 + 1e-12);
+}
+
+// A predicted contact (or, with `resume`, a search that used up its iterations and goes on
+// from t) of the bodies in slots a and b, valid while neither has changed since.
+struct Event {
+  double t = 0.0;
+  std::int64_t id_a = 0, id_b = 0;  // canonical order: id_a < id_b
+  std::uint32_t a = 0, b = 0;
+  std::uint32_t version_a = 0, version_b = 0;
+  bool resume = false;
+};
+// Earliest first; ties by ids, so the order does not depend on the order of insertion.
+struct Later {
+  bool operator()(const Event &x, const Event &y) const {
+    if (x.t != y.t) return x.t > y.t;
+    if (x.id_a != y.id_a) return x.id_a > y.id_a;
+    return x.id_b > y.id_b;
+  }
+};
+
+// What every cluster reads.
+struct Context {
+  const Particles &p;
+  const Box &box;
+  Vec3 inverse;
+  const Shape &shape;
+  const NeighborList &list;
+  const std::vector<std::uint32_t> &group_of;  // by body: its cluster, kNone if none
+  double dt;
+  const ExactSettings &settings;
+  // By body: a flown body's overrun, written as its cluster lands (ExactScratch::overrun; a
+  // cluster's bodies are its own, so threads write apart), else 0.
+  double *overrun;
+};
+
+// Candidate::apart holds: the detection's margin is above the search's tolerance.
+inline bool screened(const ExactSettings &settings) {
+  return settings.contact.tolerance < kApartMargin;
+}
+
+// Two flights touching now (fa has the lower id; xb: b's centre at its image nearest a): the
+// elastic, frictionless impulse given if they close, with its virial J n . (x_a - x_b); else
+// (a graze) nothing changes, and `gap` is their surface gap.
+struct Touch {
+  bool closing = false;
+  double virial = 0.0;
+  double gap = 0.0;
+};
+
+inline Touch give_impulse(Flight &fa, Flight &fb, const Vec3 &xb, const Shape &shape) {
+  const Vec3 r = xb - fa.x;
+  const double h = shape.half_length();
+  const SegmentClosest sc = segment_closest_inline(r, fa.e, h, fb.e, h);
+  Contact c;
+  contact_geometry(sc, r, fa.e, fb.e, shape, c);
+  const double u = dot(c.normal, fa.v - fb.v) + dot(fa.w, c.arm_i) - dot(fb.w, c.arm_j);
+  Touch out;
+  if (!(u < 0.0)) {
+    out.gap = std::sqrt(sc.dist2) - shape.diameter;
+    return out;
+  }
+  const double inv_m = 1.0 / shape.mass, inv_i = shape.inverse_inertia();
+  const double j = -2.0 * u / c.inverse_mass;
+  fa.v = fa.v + (j * inv_m) * c.normal;
+  fb.v = fb.v - (j * inv_m) * c.normal;
+  fa.w = fa.w + (j * inv_i) * c.arm_i;
+  fb.w = fb.w - (j * inv_i) * c.arm_j;
+  out.closing = true;
+  out.virial = j * dot(c.normal, fa.x - xb);
+  return out;
+}
+
+// A flight flown on to time t (it then starts there), with the bound on how far any point of
+// the body moved grown by the way. A sphere's axis does not turn, as in its free flight
+// (drift): the same bits, without the rotation's arithmetic.
+inline void fly_on(Flight &f, double &moved, double t, double h) {
+  moved += point_speed(f, h) * (t - f.t0);
+  f.x = f.position(t);
+  if (h > 0.0) f.e = f.axis(t);
+  f.t0 = t;
+}
+
+// Whether listed pair `pair` of bodies a and b could touch within the step when each may end
+// it beyond its free flight's bound by its overrun: first the slack with the real bounds, then
+// the distance at the step's start against the two bodies' reaches. `false` is a proof.
+inline bool overrun_could_touch(const Particles &p, const Box &box, const Vec3 &inverse,
+                                const Shape &shape, const ListedPair &pair, std::uint32_t a,
+                                double overrun_a, std::uint32_t b, double overrun_b) {
+  const double *bound = p.motion_bound.data();
+  const double first = pair.first == a ? overrun_a : overrun_b;
+  const double second = pair.first == a ? overrun_b : overrun_a;
+  const double moved = bound[pair.first] + first + bound[pair.second] + second;
+  if (moved < pair.recheck_at) return false;
+  Contact c;
+  double d = 0.0;
+  const double reach =
+      (2.0 * p.grow[a] + overrun_a) + (2.0 * p.grow[b] + overrun_b) + kDistanceSafetyMargin;
+  return make_contact(p, box, inverse, shape, a, b, c, d, reach);
+}
+
+// The step's events in one queue instead of by cluster (exact_queue.cpp); false where a body
+// passed the event cap's bound: nothing is written then (flown is left empty), and the caller
+// solves the step by clusters.
+bool solve_in_one_queue(const Context &cx, const std::vector<Candidate> &candidates,
+                        ExactScratch &scratch, ExactStats &stats, std::vector<FlownBody> &flown);
+
+}  // namespace hardrod::exact_events

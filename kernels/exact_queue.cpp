@@ -1,0 +1,268 @@
+// The exact method's events of a whole step in one queue (exact_events.hpp), on one rank.
+#include <algorithm>
+
+#include "kernels/exact_events.hpp"
+
+namespace hardrod::exact_events {
+namespace {
+
+// The whole step's events in one queue, by time (ties by ids), on one thread: the clusters'
+// events without the clusters. A prediction depends only on the two bodies' flights and the
+// time it starts from, so the events are those of the clusters' passes, and the end states
+// their bits. A body that changes velocity is predicted again against its candidate partners;
+// and where its new velocity could carry it beyond its free flight's bound by the step's end
+// (its overrun so far), its other listed pairs are checked, as the clusters' overrun check
+// does, against that overrun and the partner's: a pair that could then touch joins the
+// candidates (an "extra" pair) for the rest of the step. Every pair that touches in the end is
+// one of them: each body's last check was made with overruns at least its final one, and
+// its partner's. A body that takes part in more than twice events_per_body events stops the
+// pass (a cluster past its cap, events_per_body per body, must hold one): the caller then
+// solves the step by clusters, whose fallback it is.
+class StepPass {
+ public:
+  bool run(const Context &cx, ExactScratch &scratch, const std::vector<Candidate> &candidates,
+           ExactStats &stats, std::vector<FlownBody> &flown) {
+    cx_ = &cx;
+    scratch_ = &scratch;
+    clear();
+    scratch.first_edge.resize(cx.list.active, kNone);
+    for (const Candidate &c : candidates) link(c.i, c.j);
+    const bool done = pass(candidates, screened(cx.settings));
+    if (done) {
+      stats_.queued = 1;
+      stats += stats_;
+      land(flown);
+    }
+    for (const std::uint32_t b : bodies_) scratch_->label[b] = kNone;
+    unlink();
+    return done;
+  }
+
+ private:
+  // Storage kept from step to step: a step allocates nothing once the queue has grown.
+  void clear() {
+    bodies_.clear();
+    flight_.clear();
+    moved_.clear();
+    checked_.clear();
+    version_.clear();
+    events_.clear();
+    collisions_.clear();
+    virial_.clear();
+    edges_.clear();
+    queue_.clear();
+    stats_ = {};
+  }
+
+  // Each body's partners, a list through edges_ from first_edge[body]: its candidates' other
+  // bodies, then the extra pairs. Only the bodies listed are touched (unlink clears them).
+  void link(std::uint32_t a, std::uint32_t b) {
+    std::vector<std::uint32_t> &first = scratch_->first_edge;
+    edges_.push_back({b, first[a]});
+    first[a] = static_cast<std::uint32_t>(edges_.size() - 1);
+    edges_.push_back({a, first[b]});
+    first[b] = static_cast<std::uint32_t>(edges_.size() - 1);
+  }
+  void unlink() {
+    for (const Edge &e : edges_) scratch_->first_edge[e.other] = kNone;
+  }
+  template <class F>
+  void each_partner(std::uint32_t body, F &&f) const {
+    for (std::uint32_t k = scratch_->first_edge[body]; k != kNone; k = edges_[k].next)
+      f(edges_[k].other);
+  }
+
+  bool pass(const std::vector<Candidate> &candidates, bool screened) {
+    for (const Candidate &c : candidates)
+      if (!(screened && c.apart)) predict(c.i, c.j, 0.0, false);
+    const long long cap = 2 * cx_->settings.events_per_body;
+    while (!queue_.empty()) {
+      std::pop_heap(queue_.begin(), queue_.end(), Later());
+      const Event ev = queue_.back();
+      queue_.pop_back();
+      if (ev.version_a != version(ev.a) || ev.version_b != version(ev.b)) continue;
+      ++stats_.events;
+      const std::uint32_t sa = slot(ev.a), sb = slot(ev.b);
+      if (++events_[sa] > cap || ++events_[sb] > cap) return false;
+      if (ev.resume)
+        predict(ev.a, ev.b, ev.t, false);
+      else
+        collide(ev.a, ev.b, sa, sb, ev.t);
+    }
+    return true;
+  }
+
+  std::uint32_t version(std::uint32_t body) const {
+    const std::uint32_t s = scratch_->label[body];
+    return s == kNone ? 0 : version_[s];
+  }
+
+  // Body b's slot, made when it first takes part in an event, with its flight from the
+  // step's start.
+  std::uint32_t slot(std::uint32_t b) {
+    std::uint32_t &s = scratch_->label[b];
+    if (s != kNone) return s;
+    s = static_cast<std::uint32_t>(bodies_.size());
+    bodies_.push_back(b);
+    flight_.push_back(start_flight(b));
+    moved_.push_back(0.0);
+    checked_.push_back(0.0);
+    version_.push_back(0);
+    events_.push_back(0);
+    collisions_.push_back(0);
+    virial_.push_back(ExactSum());
+    return s;
+  }
+
+  Flight start_flight(std::uint32_t b) const {
+    return {cx_->p.position(b), cx_->p.axis(b), cx_->p.velocity(b), cx_->p.angular_velocity(b),
+            0.0};
+  }
+
+  Flight flight(std::uint32_t b) const {
+    const std::uint32_t s = scratch_->label[b];
+    return s == kNone ? start_flight(b) : flight_[s];
+  }
+
+  // Body b's flight moved to the periodic image of b nearest a at the step's start.
+  Flight image_of(std::uint32_t a, std::uint32_t b) const {
+    const Vec3 raw = cx_->p.position(b) - cx_->p.position(a);
+    Flight f = flight(b);
+    f.x = f.x + (cx_->box.minimum_image(raw, cx_->inverse) - raw);
+    return f;
+  }
+
+  // As ClusterPass::predict, for bodies.
+  void predict(std::uint32_t a, std::uint32_t b, double t, bool again) {
+    if (cx_->p.id[a] > cx_->p.id[b]) std::swap(a, b);
+    const ContactTime ct = first_contact(flight(a), image_of(a, b), cx_->shape.half_length(),
+                                         cx_->shape.diameter, t, cx_->dt, cx_->settings.contact);
+    ++stats_.searches;
+    stats_.repredictions += again;
+    stats_.root_iterations += ct.iterations;
+    if (!ct.found && ct.converged) return;
+    stats_.unconverged += !ct.converged;
+    queue_.push_back({ct.t, cx_->p.id[a], cx_->p.id[b], a, b, version(a), version(b), !ct.found});
+    std::push_heap(queue_.begin(), queue_.end(), Later());
+  }
+
+  void fly_to(std::uint32_t s, double t) {
+    fly_on(flight_[s], moved_[s], t, cx_->shape.half_length());
+  }
+
+  // Bodies a and b (slots sa, sb; a has the lower id) touching at t: as ClusterPass::collide.
+  void collide(std::uint32_t a, std::uint32_t b, std::uint32_t sa, std::uint32_t sb, double t) {
+    fly_to(sa, t);
+    fly_to(sb, t);
+    const Touch touch = give_impulse(flight_[sa], flight_[sb], image_of(a, b).x, cx_->shape);
+    if (!touch.closing) {
+      ++stats_.grazes;
+      if (touch.gap > -cx_->settings.contact.tolerance)
+        predict(a, b, std::min(cx_->dt, t + 1e-9 * cx_->dt), true);
+      return;
+    }
+    stats_.virial.add(touch.virial);
+    virial_[sa].add(touch.virial);
+    ++stats_.collisions;
+    ++collisions_[sa];
+    ++version_[sa];
+    ++version_[sb];
+    check_overrun(a, sa, t);
+    check_overrun(b, sb, t);
+    predict_partners(a, kNone, t);
+    predict_partners(b, a, t);
+  }
+
+  // A partner of `body` it is predicted against: a candidate partner or an extra pair.
+  bool partners(std::uint32_t body, std::uint32_t other) const {
+    for (std::uint32_t k = scratch_->first_edge[body]; k != kNone; k = edges_[k].next)
+      if (edges_[k].other == other) return true;
+    return false;
+  }
+
+  // How far beyond its free flight's bound a body may end the step: the overrun it would have
+  // if it flew on from t unchanged (the clusters' FlownBody::overrun, the same operations);
+  // the largest it was checked with, for a body without slot (0).
+  double overrun_from(std::uint32_t s, std::uint32_t body, double t) const {
+    return moved_[s] + point_speed(flight_[s], cx_->shape.half_length()) * (cx_->dt - t) -
+           2.0 * cx_->p.grow[body];
+  }
+  double checked(std::uint32_t body) const {
+    const std::uint32_t s = scratch_->label[body];
+    return s == kNone ? 0.0 : checked_[s];
+  }
+
+  // Where body's overrun from t is above the one it was last checked with, its listed pairs
+  // that are not yet partners, checked as OverrunCheck does: those that could touch become
+  // extra pairs.
+  void check_overrun(std::uint32_t body, std::uint32_t s, double t) {
+    const double overrun = overrun_from(s, body, t);
+    if (!(overrun > checked_[s])) return;
+    checked_[s] = overrun;
+    const NeighborList &list = cx_->list;
+    const std::uint32_t begin = list.pairs_start[body], end = list.pairs_start[body + 1];
+    // Every load below is scattered (a miss each at N = 32768): asked for all at once first.
+    for (std::uint32_t q = begin; q < end; ++q) {
+      const std::uint32_t other = list.pair_partner[q];
+      __builtin_prefetch(&list.pairs[list.pair_index[q]]);
+      __builtin_prefetch(&cx_->p.motion_bound[other]);
+      __builtin_prefetch(&scratch_->label[other]);
+    }
+    for (std::uint32_t q = begin; q < end; ++q) {
+      const std::uint32_t other = list.pair_partner[q];
+      if (!overrun_could_touch(cx_->p, cx_->box, cx_->inverse, cx_->shape,
+                               list.pairs[list.pair_index[q]], body, overrun, other,
+                               checked(other)) ||
+          partners(body, other))
+        continue;
+      link(body, other);
+      ++stats_.extra_pairs;
+    }
+  }
+
+  void predict_partners(std::uint32_t body, std::uint32_t skip, double t) {
+    each_partner(body, [&](std::uint32_t other) {
+      if (other != skip) predict(body, other, t, true);
+    });
+  }
+
+  // The bodies whose velocity changed, flown to the step's end (in the order of their first
+  // events: the order of the flown list changes nothing).
+  void land(std::vector<FlownBody> &flown) {
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+      if (version_[s] == 0) continue;
+      const std::uint32_t body = bodies_[s];
+      fly_to(s, cx_->dt);
+      const Flight &f = flight_[s];
+      const double overrun = std::max(0.0, moved_[s] - 2.0 * cx_->p.grow[body]);
+      flown.push_back({body, f.x, f.e, f.v, f.w, overrun, collisions_[s], virial_[s]});
+    }
+  }
+
+  const Context *cx_ = nullptr;
+  ExactScratch *scratch_ = nullptr;    // label: a body's slot (kNone: none); first_edge
+  std::vector<std::uint32_t> bodies_;  // by slot
+  std::vector<Flight> flight_;
+  std::vector<double> moved_;
+  std::vector<double> checked_;  // the largest overrun the body's listed pairs were checked with
+  std::vector<std::uint32_t> version_;
+  std::vector<long long> events_;
+  std::vector<long long> collisions_;
+  std::vector<ExactSum> virial_;
+  struct Edge {
+    std::uint32_t other, next;  // next: the body's next edge, kNone at the end
+  };
+  std::vector<Edge> edges_;
+  std::vector<Event> queue_;
+  ExactStats stats_;
+};
+
+}  // namespace
+
+bool solve_in_one_queue(const Context &cx, const std::vector<Candidate> &candidates,
+                        ExactScratch &scratch, ExactStats &stats, std::vector<FlownBody> &flown) {
+  thread_local StepPass pass;
+  return pass.run(cx, scratch, candidates, stats, flown);
+}
+
+}  // namespace hardrod::exact_events
