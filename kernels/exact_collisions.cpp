@@ -647,7 +647,10 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
     scratch.label.resize(list.active, kNone);
     const Context cx{p,        box,    box.inverse_length(), shape, list, scratch.label, dt,
                      settings, nullptr};
-    if (solve_in_one_queue(cx, candidates, scratch, stats, flown)) return stats;
+    if (solve_in_one_queue(cx, candidates, {}, false, scratch, stats, flown)) {
+      stats.queued = 1;
+      return stats;
+    }
   }
   Partition &pt = step_partition();
   first_partition(list, candidates, {}, screened(settings), scratch, pt);
@@ -679,6 +682,12 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
   stats.candidates = static_cast<long long>(candidates.size());
   stats.apart = count_apart(candidates);
   if (candidates.empty() && joins.empty()) return stats;
+  if (settings.one_queue) {
+    scratch.label.resize(list.active, kNone);
+    const Context cx{p,        box,    box.inverse_length(), shape, list, scratch.label, dt,
+                     settings, nullptr};
+    if (solve_in_one_queue(cx, candidates, joins, true, scratch, stats, flown)) return stats;
+  }
   Partition &pt = step_partition();
   first_partition(list, candidates, joins, screened(settings), scratch, pt);
   const Context cx{p,  box,      box.inverse_length(),  shape, list, scratch.label,

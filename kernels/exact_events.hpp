@@ -119,10 +119,13 @@ inline bool overrun_could_touch(const Particles &p, const Box &box, const Vec3 &
   return make_contact(p, box, inverse, shape, a, b, c, d, reach);
 }
 
-// The step's events in one queue instead of by cluster (exact_queue.cpp); false where a body
-// passed the event cap's bound: nothing is written then (flown is left empty), and the caller
-// solves the step by clusters.
+// The step's events in one queue instead of by cluster (exact_queue.cpp): the candidates' and
+// the joins' pairs, and the pairs a body's overrun could bring to touch, with a body outside
+// them (`confined` false, one rank's whole step) or only between their bodies (`confined`:
+// collide_once, where the caller checks the rest). False where a body passed the event cap's
+// bound: nothing is written then (flown is left empty), and the caller solves by clusters.
 bool solve_in_one_queue(const Context &cx, const std::vector<Candidate> &candidates,
-                        ExactScratch &scratch, ExactStats &stats, std::vector<FlownBody> &flown);
+                        const std::vector<BodyPair> &joins, bool confined, ExactScratch &scratch,
+                        ExactStats &stats, std::vector<FlownBody> &flown);
 
 }  // namespace hardrod::exact_events

@@ -21,15 +21,18 @@ namespace {
 class StepPass {
  public:
   bool run(const Context &cx, ExactScratch &scratch, const std::vector<Candidate> &candidates,
-           ExactStats &stats, std::vector<FlownBody> &flown) {
+           const std::vector<BodyPair> &joins, bool confined, ExactStats &stats,
+           std::vector<FlownBody> &flown) {
     cx_ = &cx;
     scratch_ = &scratch;
+    confined_ = confined;
     clear();
     scratch.first_edge.resize(cx.list.active, kNone);
     for (const Candidate &c : candidates) link(c.i, c.j);
+    for (const auto &[a, b] : joins)
+      if (!partners(a, b)) link(a, b);
     const bool done = pass(candidates, screened(cx.settings));
     if (done) {
-      stats_.queued = 1;
       stats += stats_;
       land(flown);
     }
@@ -210,6 +213,7 @@ class StepPass {
     }
     for (std::uint32_t q = begin; q < end; ++q) {
       const std::uint32_t other = list.pair_partner[q];
+      if (confined_ && scratch_->first_edge[other] == kNone) continue;  // not this pass's
       if (!overrun_could_touch(cx_->p, cx_->box, cx_->inverse, cx_->shape,
                                list.pairs[list.pair_index[q]], body, overrun, other,
                                checked(other)) ||
@@ -240,7 +244,8 @@ class StepPass {
   }
 
   const Context *cx_ = nullptr;
-  ExactScratch *scratch_ = nullptr;    // label: a body's slot (kNone: none); first_edge
+  bool confined_ = false;            // extra pairs only between bodies of the candidates and joins
+  ExactScratch *scratch_ = nullptr;  // label: a body's slot (kNone: none); first_edge
   std::vector<std::uint32_t> bodies_;  // by slot
   std::vector<Flight> flight_;
   std::vector<double> moved_;
@@ -260,9 +265,10 @@ class StepPass {
 }  // namespace
 
 bool solve_in_one_queue(const Context &cx, const std::vector<Candidate> &candidates,
-                        ExactScratch &scratch, ExactStats &stats, std::vector<FlownBody> &flown) {
+                        const std::vector<BodyPair> &joins, bool confined, ExactScratch &scratch,
+                        ExactStats &stats, std::vector<FlownBody> &flown) {
   thread_local StepPass pass;
-  return pass.run(cx, scratch, candidates, stats, flown);
+  return pass.run(cx, scratch, candidates, joins, confined, stats, flown);
 }
 
 }  // namespace hardrod::exact_events

@@ -5,7 +5,8 @@
 // owned body), so a cluster's edges are the union of its owners'. A round:
 //   1. the components of this rank's edges (candidates and the joins agreed so far) over the
 //      bodies it advances; a component of bodies this rank owns is a whole cluster and is
-//      solved here (collide_once); where other ranks hold some of its bodies (as shadows),
+//      solved here (collide_once: on one thread the changed ones together in one queue,
+//      confined to their bodies); where other ranks hold some of its bodies (as shadows),
 //      their results go to them with the next exchange. A component with a shadow is
 //      *spanning*;
 //   2. each spanning component goes as a piece (bodies at the step's start, edges, the owned
@@ -274,10 +275,14 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
   ExactProblem &problem = exact_problem_;
   const double near = scene_.shape.length + scene_.shape.diameter + 2.0 * list_.skin;
   exact_problem(pieces, ec, take, scene_.box, near, problem);
+  // By cluster, never in one queue: a rank solves the complete clusters it has a body of, and
+  // each cluster must come out the same on every rank that solves it, whatever else it solves.
+  ExactSettings by_cluster = exact_settings_;
+  by_cluster.one_queue = false;
   std::vector<FlownBody> flown;
   round.work +=
       collide_once(problem.bodies, scene_.box, scene_.shape, problem.list, problem.candidates,
-                   problem.joins, scene_.dt, exact_settings_, exact_scratch_, flown);
+                   problem.joins, scene_.dt, by_cluster, exact_scratch_, flown);
   // Every body of a solved cluster, as a result (by work index).
   std::vector<const FlownBody *> flown_of(problem.piece.size(), nullptr);
   for (const FlownBody &f : flown) flown_of[f.body] = &f;

@@ -110,14 +110,15 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
     double reach = 0.0;
     {
       ScopedRegion r(timers_, Region::kResolve);
+      // One thread takes the events of a step (on several ranks: of the clusters it owns
+      // whole) in one queue; a team solves clusters in parallel (the same bits). Everyday
+      // nematic, equilibrated, dt 1e-3: one thread 108.5 -> 92.0 us per rod per tau with the
+      // queue; two threads 88-109 ns per rod-step by cluster against 99-112 in the queue
+      // (docs/performance.md).
+      exact_settings_.one_queue = omp_get_max_threads() == 1;
       if (comm_.size() > 1) {
         stats = collide_on_ranks(reach);
       } else {
-        // One thread takes the step's events in one queue; a team solves clusters in parallel
-        // (the same bits). Everyday nematic, equilibrated, dt 1e-3: one thread 108.5 -> 92.0 us
-        // per rod per tau with the queue; two threads 88-109 ns per rod-step by cluster against
-        // 99-112 in the queue (docs/performance.md).
-        exact_settings_.one_queue = omp_get_max_threads() == 1;
         stats = collide_exactly(particles_, scene_.box, scene_.shape, list_, candidates_, scene_.dt,
                                 exact_settings_, exact_scratch_, flown_);
         for (const FlownBody &f : flown_)

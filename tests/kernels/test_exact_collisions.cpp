@@ -179,10 +179,10 @@ bool same_bits(const FlownBody &a, const FlownBody &b) {
          a.collisions == b.collisions && a.virial.raw() == b.virial.raw();
 }
 
-// Several ranks solve a step in rounds: every cluster once (collide_once), the overruns'
-// reaches (overrun_reaches) joined, again until none. On one rank that must end where
-// collide_exactly's own loop ends, bit for bit: a Newton's cradle (a join), and a hot, dense
-// hard-sphere system at a long step (many clusters, several joins).
+// Several ranks solve a step in rounds: every cluster once (collide_once, by cluster or in one
+// queue), the overruns' reaches (overrun_reaches) joined, again until none. On one rank that
+// must end where collide_exactly's own loop ends, bit for bit: a Newton's cradle (a join), and
+// a hot, dense hard-sphere system at a long step (many clusters, several joins).
 TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
   const Shape sphere{.length = 0.0};
   Particles cradle = spheres_on_x({5.0, 6.0005, 7.03, 8.2}, {1.0, 0.0, 0.0, -0.5});
@@ -212,24 +212,30 @@ TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
     std::vector<FlownBody> kernel, rounds;
     const ExactStats whole =
         collide_exactly(p, c.box, sphere, list, candidates, c.dt, {}, scratch, kernel);
-    std::vector<BodyPair> joins;
-    std::vector<double> overrun;
-    for (int round = 0; round < 100; ++round) {
-      collide_once(p, c.box, sphere, list, candidates, joins, c.dt, {}, scratch, rounds);
-      const auto more = overrun_reaches(p, c.box, sphere, list, rounds,
-                                        labels(p.size(), candidates, joins), overrun);
-      if (more.empty()) break;
-      joins.insert(joins.end(), more.begin(), more.end());
-    }
-    EXPECT_EQ(static_cast<long long>(joins.size()), whole.regrown);
-    joined += whole.regrown;
     const auto by_body = [](const FlownBody &a, const FlownBody &b) { return a.body < b.body; };
     std::sort(kernel.begin(), kernel.end(), by_body);
-    std::sort(rounds.begin(), rounds.end(), by_body);
-    ASSERT_EQ(kernel.size(), rounds.size());
-    EXPECT_GT(kernel.size(), 2u);
-    for (std::size_t k = 0; k < kernel.size(); ++k)
-      EXPECT_TRUE(same_bits(kernel[k], rounds[k])) << "body " << kernel[k].body;
+    // The rounds by cluster, and in one queue (confined to the candidates' and joins' bodies).
+    for (const bool queue : {false, true}) {
+      ExactSettings settings;
+      settings.one_queue = queue;
+      std::vector<BodyPair> joins;
+      std::vector<double> overrun;
+      for (int round = 0; round < 100; ++round) {
+        collide_once(p, c.box, sphere, list, candidates, joins, c.dt, settings, scratch, rounds);
+        const auto more = overrun_reaches(p, c.box, sphere, list, rounds,
+                                          labels(p.size(), candidates, joins), overrun);
+        if (more.empty()) break;
+        joins.insert(joins.end(), more.begin(), more.end());
+      }
+      if (!queue) EXPECT_EQ(static_cast<long long>(joins.size()), whole.regrown);
+      std::sort(rounds.begin(), rounds.end(), by_body);
+      ASSERT_EQ(kernel.size(), rounds.size()) << "queue " << queue;
+      EXPECT_GT(kernel.size(), 2u);
+      for (std::size_t k = 0; k < kernel.size(); ++k)
+        EXPECT_TRUE(same_bits(kernel[k], rounds[k]))
+            << "body " << kernel[k].body << " queue " << queue;
+    }
+    joined += whole.regrown;
   }
   EXPECT_GE(joined, 2);
 }
