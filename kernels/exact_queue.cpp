@@ -1,4 +1,5 @@
-// The exact method's events of a whole step in one queue (exact_events.hpp), on one rank.
+// The exact method's events of a whole step in one queue (exact_events.hpp), on one thread: one
+// rank's whole step, or on several ranks the clusters a rank owns whole.
 #include <algorithm>
 
 #include "kernels/exact_events.hpp"
@@ -15,7 +16,9 @@ namespace {
 // does, against that overrun and the partner's: a pair that could then touch joins the
 // candidates (an "extra" pair) for the rest of the step. Every pair that touches in the end is
 // one of them: each body's last check was made with overruns at least its final one, and
-// its partner's. A body that takes part in more than twice events_per_body events stops the
+// its partner's. Confined (several ranks), the extra pairs stay between the bodies of the
+// candidates and joins given, and the caller's overrun check sees to the others, as it does
+// for clusters. A body that takes part in more than twice events_per_body events stops the
 // pass (a cluster past its cap, events_per_body per body, must hold one): the caller then
 // solves the step by clusters, whose fallback it is.
 class StepPass {
@@ -57,8 +60,9 @@ class StepPass {
     stats_ = {};
   }
 
-  // Each body's partners, a list through edges_ from first_edge[body]: its candidates' other
-  // bodies, then the extra pairs. Only the bodies listed are touched (unlink clears them).
+  // Each body's partners, a list through edges_ from first_edge[body] (latest first): the other
+  // bodies of its candidates, joins and extra pairs. Only the bodies linked are touched, and
+  // unlink clears them.
   void link(std::uint32_t a, std::uint32_t b) {
     std::vector<std::uint32_t> &first = scratch_->first_edge;
     edges_.push_back({b, first[a]});
