@@ -52,16 +52,8 @@ class ClusterPass {
     count_ = count;
     stats_ = {};
     queue_.clear();
-    flight_.resize(count);
-    moved_.assign(count, 0.0);
-    version_.assign(count, 0);
-    collisions_.assign(count, 0);
-    virial_.assign(count, ExactSum());
-    for (std::size_t s = 0; s < count; ++s) {
-      const std::uint32_t b = bodies[s];
-      flight_[s] = {cx_.p.position(b), cx_.p.axis(b), cx_.p.velocity(b), cx_.p.angular_velocity(b),
-                    0.0};
-    }
+    slots_.clear();
+    for (std::size_t s = 0; s < count; ++s) slots_.add(cx_.p, bodies[s]);
     for (std::size_t k = 0; k < ncandidates; ++k)
       if (candidates[k].live) predict(slot(candidates[k].i), slot(candidates[k].j), 0.0, false);
     const long long cap = cx_.settings.events_per_body * static_cast<long long>(count);
@@ -70,7 +62,7 @@ class ClusterPass {
       std::pop_heap(queue_.begin(), queue_.end(), Later());
       const Event ev = queue_.back();
       queue_.pop_back();
-      if (ev.version_a != version_[ev.a] || ev.version_b != version_[ev.b]) continue;
+      if (ev.version_a != slots_.version[ev.a] || ev.version_b != slots_.version[ev.b]) continue;
       if (++stats_.events > cap * (fell_back ? 2 : 1)) {
         if (fell_back) break;  // chattering on: the rest of the step in free flight
         fall_back(ev.t);
@@ -91,57 +83,49 @@ class ClusterPass {
     return static_cast<std::uint32_t>(std::lower_bound(bodies_, bodies_ + count_, body) - bodies_);
   }
 
-  // Slot b's flight moved to the periodic image of b nearest a at the step's start (the image
+  // What moves slot b to the periodic image of b nearest a at the step's start (the image
   // does not change within a step: the list's pairs are far shorter than half the box).
-  Flight image_of(std::uint32_t a, std::uint32_t b) const {
+  Vec3 shift(std::uint32_t a, std::uint32_t b) const {
     const Vec3 raw = cx_.p.position(bodies_[b]) - cx_.p.position(bodies_[a]);
-    Flight f = flight_[b];
-    f.x = f.x + (cx_.box.minimum_image(raw, cx_.inverse) - raw);
+    return cx_.box.minimum_image(raw, cx_.inverse) - raw;
+  }
+  // Slot b's flight there.
+  Flight image_of(std::uint32_t a, std::uint32_t b) const {
+    Flight f = slots_.flight[b];
+    f.x = f.x + shift(a, b);
     return f;
   }
 
   // The first contact of slots a and b from t on, queued if there is one in the step.
   void predict(std::uint32_t a, std::uint32_t b, double t, bool again) {
     if (cx_.p.id[bodies_[a]] > cx_.p.id[bodies_[b]]) std::swap(a, b);
-    const ContactTime ct = first_contact(flight_[a], image_of(a, b), cx_.shape.half_length(),
+    const ContactTime ct = first_contact(slots_.flight[a], image_of(a, b), cx_.shape.half_length(),
                                          cx_.shape.diameter, t, cx_.dt, cx_.settings.contact);
     ++stats_.searches;
     stats_.repredictions += again;
     stats_.root_iterations += ct.iterations;
     if (!ct.found && ct.converged) return;
     stats_.unconverged += !ct.converged;
-    queue_.push_back({ct.t, cx_.p.id[bodies_[a]], cx_.p.id[bodies_[b]], a, b, version_[a],
-                      version_[b], !ct.found});
+    queue_.push_back({ct.t, cx_.p.id[bodies_[a]], cx_.p.id[bodies_[b]], a, b, slots_.version[a],
+                      slots_.version[b], !ct.found});
     std::push_heap(queue_.begin(), queue_.end(), Later());
   }
 
-  // Slot s flown on to time t (fly_on).
-  void fly_to(std::uint32_t s, double t) {
-    fly_on(flight_[s], moved_[s], t, cx_.shape.half_length());
-  }
+  void fly_to(std::uint32_t s, double t) { slots_.fly_to(s, t, cx_.shape.half_length()); }
 
   // The elastic, frictionless impulse of slots a and b touching at t (a has the lower id),
   // then every listed pair of the two inside the cluster predicted again.
   void collide(std::uint32_t a, std::uint32_t b, double t) {
-    fly_to(a, t);
-    fly_to(b, t);
-    const Touch touch = give_impulse(flight_[a], flight_[b], image_of(a, b).x, cx_.shape);
+    const Touch touch = slots_.collide(a, b, t, shift(a, b), cx_.shape, stats_);
     if (!touch.closing) {
       // A graze: the search saw the pair closing, this geometry (rounded differently) does
       // not. Nothing changes; the pair is searched again from a moment later, so that the
       // pass always moves on (the gap can shrink by at most ~1e-12 D meanwhile). A pair that
       // overlaps already (a start file from the midpoint method) and recedes is left to part.
-      ++stats_.grazes;
       if (touch.gap > -cx_.settings.contact.tolerance)
         predict(a, b, std::min(cx_.dt, t + 1e-9 * cx_.dt), true);
       return;
     }
-    stats_.virial.add(touch.virial);
-    virial_[a].add(touch.virial);
-    ++stats_.collisions;
-    ++collisions_[a];
-    ++version_[a];
-    ++version_[b];
     predict_pairs_of(a, kNone, t);
     predict_pairs_of(b, a, t);
   }
@@ -186,10 +170,10 @@ class ClusterPass {
     for (std::uint32_t s = 0; s < count_; ++s) {
       fly_to(s, t);
       scratch.id[s] = cx_.p.id[bodies_[s]];
-      scratch.set_position(s, flight_[s].x);
-      scratch.set_axis(s, flight_[s].e);
-      scratch.set_velocity(s, flight_[s].v);
-      scratch.set_angular_velocity(s, flight_[s].w);
+      scratch.set_position(s, slots_.flight[s].x);
+      scratch.set_axis(s, slots_.flight[s].e);
+      scratch.set_velocity(s, slots_.flight[s].v);
+      scratch.set_angular_velocity(s, slots_.flight[s].w);
     }
     // Touching: closer than twice the search's tolerance (and the rounding of the flights).
     const double reach = 2.0 * cx_.settings.contact.tolerance + 1e-12;
@@ -208,15 +192,15 @@ class ClusterPass {
       if (!(c.impulse > 0.0)) continue;
       const double w = c.impulse * dot(c.normal, c.separation);
       stats_.virial.add(w);
-      virial_[c.i].add(w);
+      slots_.virial[c.i].add(w);
       ++stats_.collisions;
-      ++collisions_[c.i];
+      ++slots_.collisions[c.i];
     }
     queue_.clear();
     for (std::uint32_t s = 0; s < count_; ++s) {
-      flight_[s].v = scratch.velocity(s);
-      flight_[s].w = scratch.angular_velocity(s);
-      ++version_[s];
+      slots_.flight[s].v = scratch.velocity(s);
+      slots_.flight[s].w = scratch.angular_velocity(s);
+      ++slots_.version[s];
     }
     for (std::uint32_t s = 0; s < count_; ++s) predict_pairs_of(s, kNone, t);
   }
@@ -224,13 +208,9 @@ class ClusterPass {
   // The bodies whose velocity changed, flown to the step's end.
   void land(std::vector<FlownBody> &flown) {
     for (std::uint32_t s = 0; s < count_; ++s) {
-      if (version_[s] == 0) continue;  // in free flight all step: fly_step moves it
-      fly_to(s, cx_.dt);
-      const std::uint32_t b = bodies_[s];
-      const Flight &f = flight_[s];
-      const double overrun = std::max(0.0, moved_[s] - 2.0 * cx_.p.grow[b]);
-      flown.push_back({b, f.x, f.e, f.v, f.w, overrun, collisions_[s], virial_[s]});
-      cx_.overrun[b] = overrun;
+      if (slots_.version[s] == 0) continue;  // in free flight all step: fly_step moves it
+      flown.push_back(slots_.landed(s, bodies_[s], cx_.dt, cx_.p, cx_.shape.half_length()));
+      cx_.overrun[bodies_[s]] = flown.back().overrun;
     }
   }
 
@@ -238,12 +218,8 @@ class ClusterPass {
   std::uint32_t group_ = 0;
   const std::uint32_t *bodies_ = nullptr;  // ascending local indices
   std::size_t count_ = 0;
-  std::vector<Flight> flight_;
-  std::vector<double> moved_;  // bound on how far any point moved so far in the step
-  std::vector<std::uint32_t> version_;
-  std::vector<long long> collisions_;  // collisions in which the slot has the lower id
-  std::vector<ExactSum> virial_;       // and their virial
-  std::vector<Event> queue_;           // a heap, earliest on top
+  Slots slots_;               // by slot, the cluster's bodies in their order
+  std::vector<Event> queue_;  // a heap, earliest on top
   ExactStats stats_;
 };
 

@@ -3,6 +3,7 @@
 // those two files.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -100,6 +101,70 @@ inline void fly_on(Flight &f, double &moved, double t, double h) {
   if (h > 0.0) f.e = f.axis(t);
   f.t0 = t;
 }
+
+// Body b's free flight from the step's start.
+inline Flight start_flight(const Particles &p, std::uint32_t b) {
+  return {p.position(b), p.axis(b), p.velocity(b), p.angular_velocity(b), 0.0};
+}
+
+// The bodies a pass has met, by slot: each one's flight, how far it may have moved, its
+// version (how often its velocity changed: a prediction holds while both versions do), and
+// the collisions in which it was the lower-id body, with their virial.
+struct Slots {
+  std::vector<Flight> flight;
+  std::vector<double> moved;
+  std::vector<std::uint32_t> version;
+  std::vector<long long> collisions;
+  std::vector<ExactSum> virial;
+
+  void clear() {
+    flight.clear();
+    moved.clear();
+    version.clear();
+    collisions.clear();
+    virial.clear();
+  }
+  // A slot for a body in free flight from the step's start.
+  std::uint32_t add(const Particles &p, std::uint32_t b) {
+    flight.push_back(start_flight(p, b));
+    moved.push_back(0.0);
+    version.push_back(0);
+    collisions.push_back(0);
+    virial.push_back(ExactSum());
+    return static_cast<std::uint32_t>(flight.size() - 1);
+  }
+  void fly_to(std::uint32_t s, double t, double h) { fly_on(flight[s], moved[s], t, h); }
+
+  // Slots a and b touching at t (a has the lower id; `shift` moves b to its image nearest a):
+  // both flown there and the impulse given (give_impulse), counted in `stats` and, if the pair
+  // closed, in a's collisions, with both versions moved on. A graze is counted as one.
+  Touch collide(std::uint32_t a, std::uint32_t b, double t, const Vec3 &shift, const Shape &shape,
+                ExactStats &stats) {
+    fly_to(a, t, shape.half_length());
+    fly_to(b, t, shape.half_length());
+    const Touch touch = give_impulse(flight[a], flight[b], flight[b].x + shift, shape);
+    if (!touch.closing) {
+      ++stats.grazes;
+      return touch;
+    }
+    stats.virial.add(touch.virial);
+    virial[a].add(touch.virial);
+    ++stats.collisions;
+    ++collisions[a];
+    ++version[a];
+    ++version[b];
+    return touch;
+  }
+
+  // Slot s of body b flown to the step's end dt, as a flown body: its overrun is how much
+  // further it may have moved than its free flight's bound (2 grow) allowed.
+  FlownBody landed(std::uint32_t s, std::uint32_t b, double dt, const Particles &p, double h) {
+    fly_to(s, dt, h);
+    const Flight &f = flight[s];
+    const double overrun = std::max(0.0, moved[s] - 2.0 * p.grow[b]);
+    return {b, f.x, f.e, f.v, f.w, overrun, collisions[s], virial[s]};
+  }
+};
 
 // Whether listed pair `pair` of bodies a and b could touch within the step when each may end
 // it beyond its free flight's bound by its overrun: first the slack with the real bounds, then

@@ -48,13 +48,9 @@ class StepPass {
   // Storage kept from step to step: a step allocates nothing once the queue has grown.
   void clear() {
     bodies_.clear();
-    flight_.clear();
-    moved_.clear();
+    slots_.clear();
     checked_.clear();
-    version_.clear();
     events_.clear();
-    collisions_.clear();
-    virial_.clear();
     edges_.clear();
     queue_.clear();
     stats_ = {};
@@ -101,7 +97,7 @@ class StepPass {
 
   std::uint32_t version(std::uint32_t body) const {
     const std::uint32_t s = scratch_->label[body];
-    return s == kNone ? 0 : version_[s];
+    return s == kNone ? 0 : slots_.version[s];
   }
 
   // Body b's slot, made when it first takes part in an event, with its flight from the
@@ -109,33 +105,26 @@ class StepPass {
   std::uint32_t slot(std::uint32_t b) {
     std::uint32_t &s = scratch_->label[b];
     if (s != kNone) return s;
-    s = static_cast<std::uint32_t>(bodies_.size());
+    s = slots_.add(cx_->p, b);
     bodies_.push_back(b);
-    flight_.push_back(start_flight(b));
-    moved_.push_back(0.0);
     checked_.push_back(0.0);
-    version_.push_back(0);
     events_.push_back(0);
-    collisions_.push_back(0);
-    virial_.push_back(ExactSum());
     return s;
-  }
-
-  Flight start_flight(std::uint32_t b) const {
-    return {cx_->p.position(b), cx_->p.axis(b), cx_->p.velocity(b), cx_->p.angular_velocity(b),
-            0.0};
   }
 
   Flight flight(std::uint32_t b) const {
     const std::uint32_t s = scratch_->label[b];
-    return s == kNone ? start_flight(b) : flight_[s];
+    return s == kNone ? start_flight(cx_->p, b) : slots_.flight[s];
   }
 
-  // Body b's flight moved to the periodic image of b nearest a at the step's start.
-  Flight image_of(std::uint32_t a, std::uint32_t b) const {
+  // What moves body b to its periodic image nearest a at the step's start, and b's flight there.
+  Vec3 shift(std::uint32_t a, std::uint32_t b) const {
     const Vec3 raw = cx_->p.position(b) - cx_->p.position(a);
+    return cx_->box.minimum_image(raw, cx_->inverse) - raw;
+  }
+  Flight image_of(std::uint32_t a, std::uint32_t b) const {
     Flight f = flight(b);
-    f.x = f.x + (cx_->box.minimum_image(raw, cx_->inverse) - raw);
+    f.x = f.x + shift(a, b);
     return f;
   }
 
@@ -153,27 +142,14 @@ class StepPass {
     std::push_heap(queue_.begin(), queue_.end(), Later());
   }
 
-  void fly_to(std::uint32_t s, double t) {
-    fly_on(flight_[s], moved_[s], t, cx_->shape.half_length());
-  }
-
   // Bodies a and b (slots sa, sb; a has the lower id) touching at t: as ClusterPass::collide.
   void collide(std::uint32_t a, std::uint32_t b, std::uint32_t sa, std::uint32_t sb, double t) {
-    fly_to(sa, t);
-    fly_to(sb, t);
-    const Touch touch = give_impulse(flight_[sa], flight_[sb], image_of(a, b).x, cx_->shape);
+    const Touch touch = slots_.collide(sa, sb, t, shift(a, b), cx_->shape, stats_);
     if (!touch.closing) {
-      ++stats_.grazes;
       if (touch.gap > -cx_->settings.contact.tolerance)
         predict(a, b, std::min(cx_->dt, t + 1e-9 * cx_->dt), true);
       return;
     }
-    stats_.virial.add(touch.virial);
-    virial_[sa].add(touch.virial);
-    ++stats_.collisions;
-    ++collisions_[sa];
-    ++version_[sa];
-    ++version_[sb];
     check_overrun(a, sa, t);
     check_overrun(b, sb, t);
     predict_partners(a, kNone, t);
@@ -191,7 +167,8 @@ class StepPass {
   // if it flew on from t unchanged (the clusters' FlownBody::overrun, the same operations);
   // the largest it was checked with, for a body without slot (0).
   double overrun_from(std::uint32_t s, std::uint32_t body, double t) const {
-    return moved_[s] + point_speed(flight_[s], cx_->shape.half_length()) * (cx_->dt - t) -
+    return slots_.moved[s] +
+           point_speed(slots_.flight[s], cx_->shape.half_length()) * (cx_->dt - t) -
            2.0 * cx_->p.grow[body];
   }
   double checked(std::uint32_t body) const {
@@ -237,27 +214,18 @@ class StepPass {
   // The bodies whose velocity changed, flown to the step's end (in the order of their first
   // events: the order of the flown list changes nothing).
   void land(std::vector<FlownBody> &flown) {
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-      if (version_[s] == 0) continue;
-      const std::uint32_t body = bodies_[s];
-      fly_to(s, cx_->dt);
-      const Flight &f = flight_[s];
-      const double overrun = std::max(0.0, moved_[s] - 2.0 * cx_->p.grow[body]);
-      flown.push_back({body, f.x, f.e, f.v, f.w, overrun, collisions_[s], virial_[s]});
-    }
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+      if (slots_.version[s] != 0)
+        flown.push_back(slots_.landed(s, bodies_[s], cx_->dt, cx_->p, cx_->shape.half_length()));
   }
 
   const Context *cx_ = nullptr;
   bool confined_ = false;            // extra pairs only between bodies of the candidates and joins
   ExactScratch *scratch_ = nullptr;  // label: a body's slot (kNone: none); first_edge
+  Slots slots_;
   std::vector<std::uint32_t> bodies_;  // by slot
-  std::vector<Flight> flight_;
-  std::vector<double> moved_;
   std::vector<double> checked_;  // the largest overrun the body's listed pairs were checked with
-  std::vector<std::uint32_t> version_;
   std::vector<long long> events_;
-  std::vector<long long> collisions_;
-  std::vector<ExactSum> virial_;
   struct Edge {
     std::uint32_t other, next;  // next: the body's next edge, kNone at the end
   };
