@@ -164,13 +164,13 @@ class StepPass {
   }
 
   // How far beyond its free flight's bound a body may end the step: the overrun it would have
-  // if it flew on from t unchanged (the clusters' FlownBody::overrun, the same operations);
-  // the largest it was checked with, for a body without slot (0).
+  // if it flew on from t unchanged (the clusters' FlownBody::overrun, the same operations).
   double overrun_from(std::uint32_t s, std::uint32_t body, double t) const {
     return slots_.moved[s] +
            point_speed(slots_.flight[s], cx_->shape.half_length()) * (cx_->dt - t) -
            2.0 * cx_->p.grow[body];
   }
+  // The largest overrun a body's listed pairs were checked with (0: never, or no slot).
   double checked(std::uint32_t body) const {
     const std::uint32_t s = scratch_->label[body];
     return s == kNone ? 0.0 : checked_[s];
