@@ -299,7 +299,9 @@ def exact_work(s, steps):
             "candidates_per_step": e["candidates"] / per if per and "candidates" in e else None,
             "root_iterations_per_search": e.get("root_iterations_per_search"),
             "events_per_step": e.get("events_per_step"), "repredictions_per_step": e.get("repredictions_per_step"),
-            "largest_cluster": e.get("largest_cluster"), "fallbacks": e.get("fallbacks"),
+            # None ("-") where every step took its events in one queue: no clusters formed.
+            "largest_cluster": None if per and e.get("queued_steps", 0) >= per else e.get("largest_cluster"),
+            "fallbacks": e.get("fallbacks"),
             "unconverged_searches": e.get("unconverged_searches"), "rebuilt_in_step": e.get("rebuilt_in_step")}
 
 

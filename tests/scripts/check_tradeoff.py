@@ -189,9 +189,19 @@ def plot(rows, analysis, out):
           f"pareto.png written ({png.stat().st_size} bytes)")
 
 
+def exact_work():
+    """A run whose every step took its events in one queue formed no clusters: its largest
+    cluster is shown as "-", not as 0; a run by cluster keeps its own."""
+    queued = tradeoff.exact_work({"exact": {"steps": 10, "queued_steps": 10, "largest_cluster": 0}}, 10)
+    check(queued["largest_cluster"] is None, "one queue: no largest cluster")
+    clustered = tradeoff.exact_work({"exact": {"steps": 10, "queued_steps": 0, "largest_cluster": 7}}, 10)
+    check(clustered["largest_cluster"] == 7, "by cluster: the largest cluster as counted")
+
+
 def main():
     dry_run()
     refusals()
+    exact_work()
     with tempfile.TemporaryDirectory(prefix="hardrod-tradeoff-") as tmp:
         analysis(pathlib.Path(tmp))
     print("all tradeoff harness checks passed")
