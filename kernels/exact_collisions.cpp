@@ -600,6 +600,17 @@ void finish(const Partition &pt, ExactStats &stats, ExactScratch &scratch,
   for (const std::uint32_t b : pt.bodies) scratch.parent[b] = scratch.label[b] = kNone;
 }
 
+// The step's events in one queue (solve_in_one_queue, `confined` as there); false where the
+// queue gave up and the caller goes by cluster.
+bool in_one_queue(const Particles &p, const Box &box, const Shape &shape, const NeighborList &list,
+                  const std::vector<Candidate> &candidates, const std::vector<BodyPair> &joins,
+                  bool confined, double dt, const ExactSettings &settings, ExactScratch &scratch,
+                  ExactStats &stats, std::vector<FlownBody> &flown) {
+  scratch.label.resize(list.active, kNone);
+  const Context cx{p, box, box.inverse_length(), shape, list, scratch.label, dt, settings, nullptr};
+  return solve_in_one_queue(cx, candidates, joins, confined, scratch, stats, flown);
+}
+
 long long count_apart(const std::vector<Candidate> &candidates) {
   return std::count_if(candidates.begin(), candidates.end(),
                        [](const Candidate &c) { return c.apart; });
@@ -619,14 +630,10 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
     stats.queued = settings.one_queue;
     return stats;
   }
-  if (settings.one_queue) {
-    scratch.label.resize(list.active, kNone);
-    const Context cx{p,        box,    box.inverse_length(), shape, list, scratch.label, dt,
-                     settings, nullptr};
-    if (solve_in_one_queue(cx, candidates, {}, false, scratch, stats, flown)) {
-      stats.queued = 1;
-      return stats;
-    }
+  if (settings.one_queue && in_one_queue(p, box, shape, list, candidates, {}, false, dt, settings,
+                                         scratch, stats, flown)) {
+    stats.queued = 1;
+    return stats;
   }
   Partition &pt = step_partition();
   first_partition(list, candidates, {}, screened(settings), scratch, pt);
@@ -658,12 +665,9 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
   stats.candidates = static_cast<long long>(candidates.size());
   stats.apart = count_apart(candidates);
   if (candidates.empty() && joins.empty()) return stats;
-  if (settings.one_queue) {
-    scratch.label.resize(list.active, kNone);
-    const Context cx{p,        box,    box.inverse_length(), shape, list, scratch.label, dt,
-                     settings, nullptr};
-    if (solve_in_one_queue(cx, candidates, joins, true, scratch, stats, flown)) return stats;
-  }
+  if (settings.one_queue && in_one_queue(p, box, shape, list, candidates, joins, true, dt, settings,
+                                         scratch, stats, flown))
+    return stats;
   Partition &pt = step_partition();
   first_partition(list, candidates, joins, screened(settings), scratch, pt);
   const Context cx{p,  box,      box.inverse_length(),  shape, list, scratch.label,

@@ -153,7 +153,9 @@ void Simulation::tally_exact(const DetectionStats &detected, const ExactStats &s
   interval_.collisions += stats.collisions;
   interval_.virial += stats.virial;
   interval_.narrow_phase_tests += detected.narrow_phase_tests;
-  interval_.contacts += stats.candidates;  // the clusters are the exact block's (one rank: none)
+  // The exact method's clusters are counted in summary.json's `exact` block only: steps taken in
+  // one queue form none, so they are not the midpoint method's multi-contact clusters.
+  interval_.contacts += stats.candidates;
   interval_.max_depth = std::max(interval_.max_depth, detected.max_depth);
   ++exact_.steps;
   exact_.totals += stats;
