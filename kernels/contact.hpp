@@ -32,6 +32,10 @@ struct Candidate {
   double depth = 0.0;  // D - d at the step's start (negative: apart)
   // The two free flights alone keep the pair apart all step: its first search would find nothing.
   bool apart = false;
+  // Beyond the two free flights' reach, within the overrun allowance only (StepAhead::allowance):
+  // a partner for the one queue's predictions after a velocity changes, not a candidate of the
+  // free flights (apart too; not counted, and the clusters leave it out).
+  bool spare = false;
 };
 
 // Canonical order of contacts (and candidates): by (id_i, id_j). Every rank and thread count

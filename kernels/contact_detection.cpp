@@ -150,13 +150,19 @@ void screen_candidates(const Particles &p, double h, double D, double dt, std::s
 }
 
 // The exact method's candidate k of a batch (StepAhead, contact_detection.hpp), filled with
-// what the clusters read (ids, depth, `apart`). Spheres have no axes, spins or closest points.
+// what the clusters read (ids, depth, `apart`, `spare`). Spheres have no axes, spins or
+// closest points.
 void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &batch, std::size_t k,
-                     double dt, Candidate &c) {
+                     const StepAhead &ahead, Candidate &c) {
   const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
-  const double h = shape.half_length();
+  const double h = shape.half_length(), dt = ahead.dt;
   name_bodies(p, i, j, c);
   c.depth = shape.diameter - batch.distance[q];
+  // measure_due's reach (the sum's order does not change its bits)
+  if (!(batch.distance[q] < shape.diameter + 2.0 * (ahead.grow[i] + ahead.grow[j]))) {
+    c.spare = c.apart = true;
+    return;
+  }
   if (h > 0.0 && batch.quick_apart[k]) {
     c.apart = true;
     return;
@@ -179,8 +185,9 @@ void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &bat
 // slack renewed from its distance (bodies at motion bounds summing to `moved`). Those within
 // reach become contacts. With `ahead` (the exact method's Candidates, see
 // contact_detection.hpp) the bounds already hold the step's whole flight while the bodies are
-// still at its start: a candidate is a pair whose gap is below the two flights, screened
-// (screen_candidates, exact_candidate), and the slack is renewed for the start. Without (the
+// still at its start: a candidate is a pair whose gap is below the two flights (plus twice
+// the allowance: spares), screened (screen_candidates, exact_candidate), and the slack is
+// renewed for the start. Without (the
 // midpoint method's Contacts), a contact is an overlap (rare), measured again by make_contact.
 template <class Found>
 void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
@@ -188,6 +195,7 @@ void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const 
                  const StepAhead *ahead, std::vector<Found> &found, double &max_depth) {
   const double *bound = p.motion_bound.data();
   const double h = shape.half_length(), D = shape.diameter;
+  const double spare = ahead ? 2.0 * ahead->allowance : 0.0;
   thread_local DueBatch batch;
   for (std::size_t from = 0; from < n; from += kDueBatch) {
     const std::size_t m = std::min(kDueBatch, n - from);
@@ -202,13 +210,13 @@ void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const 
       const double reach = ahead ? 2.0 * (ahead->grow[pair.first] + ahead->grow[pair.second]) : 0.0;
       pair.recheck_at = slack_below((moved - reach) + (d - D) - kDistanceSafetyMargin);
       batch.candidate[candidates] = static_cast<std::uint32_t>(q);
-      candidates += d < D + reach;  // (a NaN is not)
+      candidates += d < D + (reach + spare);  // (a NaN is not)
     }
     if (ahead && h > 0.0) screen_candidates(p, h, D, ahead->dt, candidates, batch);
     for (std::size_t k = 0; k < candidates; ++k) {
       Found &c = found.emplace_back();
       if constexpr (std::is_same_v<Found, Candidate>) {
-        exact_candidate(p, shape, batch, k, ahead->dt, c);
+        exact_candidate(p, shape, batch, k, *ahead, c);
       } else {
         const std::uint32_t q = batch.candidate[k];
         double again = 0.0;
@@ -220,14 +228,15 @@ void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const 
 }
 
 // Pass 1 of the watched detection over bodies [lo, hi): flag the bodies whose motion bound
-// reached their watch (a vector compare) and list them in `raised`, skipping eight clear
-// flags at a time. Returns the number of pair ends of the listed bodies.
-inline long flag_block(long lo, long hi, const double *bound, const double *watch,
+// (plus `allowance`, StepAhead's) reached their watch (a vector compare) and list them in
+// `raised`, skipping eight clear flags at a time. Returns the number of pair ends of the
+// listed bodies.
+inline long flag_block(long lo, long hi, const double *bound, double allowance, const double *watch,
                        std::uint8_t *flagged, const std::uint32_t *start,
                        std::vector<std::uint32_t> &raised) {
   long ends = 0;
 #pragma omp simd
-  for (long i = lo; i < hi; ++i) flagged[i] = bound[i] >= watch[i];
+  for (long i = lo; i < hi; ++i) flagged[i] = bound[i] + allowance >= watch[i];
   for (long w = lo; w < hi; w += 8) {
     std::uint64_t word;
     std::memcpy(&word, flagged + w, sizeof word);
@@ -339,10 +348,12 @@ WatchedTeam<Found>::WatchedTeam(int threads)
 
 namespace {
 
-// The pairs of the flagged bodies `raised` whose slack is used up, into `due`; a pair of two
-// flagged bodies is visited from its first body only.
-void list_due_of(const NeighborList &list, const double *bound, const std::uint8_t *flagged,
-                 const std::vector<std::uint32_t> &raised, std::vector<std::uint32_t> &due) {
+// The pairs of the flagged bodies `raised` whose slack is used up (with `spare`, twice
+// StepAhead's allowance, added to the bounds), into `due`; a pair of two flagged bodies is
+// visited from its first body only.
+void list_due_of(const NeighborList &list, const double *bound, double spare,
+                 const std::uint8_t *flagged, const std::vector<std::uint32_t> &raised,
+                 std::vector<std::uint32_t> &due) {
   const ListedPair *pairs = list.pairs.data();
   const std::uint32_t *start = list.pairs_start.data(), *index = list.pair_index.data();
   // The pairs' records are scattered through the list: ask for all of them first.
@@ -354,7 +365,7 @@ void list_due_of(const NeighborList &list, const double *bound, const std::uint8
       const ListedPair &pair = pairs[index[a]];
       const std::uint32_t f = pair.first, s = pair.second;
       if (s == i && flagged[f]) continue;  // visited from its first body
-      if (bound[f] + bound[s] >= pair.recheck_at) due.push_back(index[a]);
+      if ((bound[f] + bound[s]) + spare >= pair.recheck_at) due.push_back(index[a]);
     }
 }
 
@@ -407,8 +418,9 @@ void watched_in_team(const Particles &p, const Box &box, const Shape &shape, Nei
   std::vector<std::uint32_t> raised;  // this block's flagged bodies
   double max_depth = 0.0;
 
-  const long my_ends =
-      flag_block(lo, hi, bound, list.watch.data(), flagged, list.pairs_start.data(), raised);
+  const double allowance = ahead ? ahead->allowance : 0.0;
+  const long my_ends = flag_block(lo, hi, bound, allowance, list.watch.data(), flagged,
+                                  list.pairs_start.data(), raised);
   shared.ends[tid] = my_ends;  // once: the threads' entries share a cache line
 #pragma omp barrier
   // Every thread takes the same decision from the same sum (no further barrier).
@@ -420,7 +432,7 @@ void watched_in_team(const Particles &p, const Box &box, const Shape &shape, Nei
   }
   // The pairs whose slack is used up, measured; then every visited pair's slack split.
   std::vector<std::uint32_t> &due = shared.due[tid];
-  list_due_of(list, bound, flagged, raised, due);
+  list_due_of(list, bound, 2.0 * allowance, flagged, raised, due);
   measure_due(p, box, box.inverse_length(), shape, list, due.data(), due.size(), ahead, mine,
               max_depth);
   split_slacks(list, bound, flagged, raised, team > 1);
@@ -501,14 +513,15 @@ DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape,
     auto &mine = found[omp_get_thread_num()];
     const auto [lo, hi] =
         team_block(static_cast<long>(npairs), omp_get_thread_num(), omp_get_num_threads());
-    // The pairs whose bounds used up the slack (the others cannot have closed their gap
-    // yet), listed without a branch and measured a batch at a time.
+    // The pairs whose bounds (plus twice the allowance) used up the slack (the others cannot
+    // have closed their gap yet), listed without a branch and measured a batch at a time.
     std::uint32_t due[kDueBatch];
     std::size_t n = 0;
     const ListedPair *pairs = list.pairs.data();
+    const double spare = ahead ? 2.0 * ahead->allowance : 0.0;
     for (long k = lo; k < hi; ++k) {
       due[n] = static_cast<std::uint32_t>(k);
-      n += bound[pairs[k].first] + bound[pairs[k].second] >= pairs[k].recheck_at;
+      n += (bound[pairs[k].first] + bound[pairs[k].second]) + spare >= pairs[k].recheck_at;
       if (n == kDueBatch) {
         measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
         tests += static_cast<long long>(n);

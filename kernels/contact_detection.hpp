@@ -40,10 +40,14 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 // a cluster's events are taken by time and then ids, whatever order its candidates were
 // predicted in, so the trajectory is the same bits (and the sort was 4 % of the hard-sphere
 // step).
+// `allowance` (D, the one queue's ExactSettings::overrun_allowance): the pairs whose gap is
+// below the two flights plus twice it come too, those beyond the flights as spares
+// (Candidate::spare), and a listed pair not found is farther apart than that.
 struct StepAhead {
   const double *grow = nullptr;
   double dt = 0.0;
   bool canonical = true;
+  double allowance = 0.0;
 };
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
                                NeighborList &list, std::vector<Candidate> &candidates,

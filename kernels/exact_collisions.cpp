@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include "kernels/contact_detection.hpp"
@@ -611,9 +612,23 @@ bool in_one_queue(const Particles &p, const Box &box, const Shape &shape, const 
   return solve_in_one_queue(cx, candidates, joins, confined, scratch, stats, flown);
 }
 
-long long count_apart(const std::vector<Candidate> &candidates) {
-  return std::count_if(candidates.begin(), candidates.end(),
-                       [](const Candidate &c) { return c.apart; });
+// The candidates' counts (ExactStats): spares are neither candidates nor apart.
+void count_candidates(const std::vector<Candidate> &candidates, ExactStats &stats) {
+  for (const Candidate &c : candidates) {
+    stats.spares += c.spare;
+    stats.apart += c.apart && !c.spare;
+  }
+  stats.candidates = static_cast<long long>(candidates.size()) - stats.spares;
+}
+
+// The candidates the clusters take: all but the spares (kept in `kept` where there are any).
+const std::vector<Candidate> &for_clusters(const std::vector<Candidate> &candidates,
+                                           const ExactStats &stats, std::vector<Candidate> &kept) {
+  if (stats.spares == 0) return candidates;
+  kept.clear();
+  std::copy_if(candidates.begin(), candidates.end(), std::back_inserter(kept),
+               [](const Candidate &c) { return !c.spare; });
+  return kept;
 }
 
 }  // namespace
@@ -624,8 +639,7 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
                            std::vector<FlownBody> &flown) {
   ExactStats stats;
   flown.clear();
-  stats.candidates = static_cast<long long>(candidates.size());
-  stats.apart = count_apart(candidates);
+  count_candidates(candidates, stats);
   if (candidates.empty()) {
     stats.queued = settings.one_queue;
     return stats;
@@ -636,7 +650,8 @@ ExactStats collide_exactly(const Particles &p, const Box &box, const Shape &shap
     return stats;
   }
   Partition &pt = step_partition();
-  first_partition(list, candidates, {}, screened(settings), scratch, pt);
+  std::vector<Candidate> kept;
+  first_partition(list, for_clusters(candidates, stats, kept), {}, screened(settings), scratch, pt);
   const Context cx{p,  box,      box.inverse_length(),  shape, list, scratch.label,
                    dt, settings, scratch.overrun.data()};
   for (std::size_t from = 0;;) {
@@ -662,14 +677,15 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
                         std::vector<FlownBody> &flown) {
   ExactStats stats;
   flown.clear();
-  stats.candidates = static_cast<long long>(candidates.size());
-  stats.apart = count_apart(candidates);
+  count_candidates(candidates, stats);
   if (candidates.empty() && joins.empty()) return stats;
   if (settings.one_queue && in_one_queue(p, box, shape, list, candidates, joins, true, dt, settings,
                                          scratch, stats, flown))
     return stats;
   Partition &pt = step_partition();
-  first_partition(list, candidates, joins, screened(settings), scratch, pt);
+  std::vector<Candidate> kept;
+  first_partition(list, for_clusters(candidates, stats, kept), joins, screened(settings), scratch,
+                  pt);
   const Context cx{p,  box,      box.inverse_length(),  shape, list, scratch.label,
                    dt, settings, scratch.overrun.data()};
   solve(cx, pt, 0);
@@ -700,6 +716,7 @@ std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const 
 ExactStats &ExactStats::operator+=(const ExactStats &o) {
   candidates += o.candidates;
   apart += o.apart;
+  spares += o.spares;
   clusters += o.clusters;
   largest_cluster = std::max(largest_cluster, o.largest_cluster);
   collisions += o.collisions;

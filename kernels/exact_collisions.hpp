@@ -29,12 +29,13 @@
 //
 // One queue (ExactSettings::one_queue, what one thread on one rank uses): the same events, no
 // clusters. The whole step's events are taken from one queue by time (ties by ids) on one
-// thread; a body whose velocity changes is predicted again against its candidate partners,
-// and, where its new velocity could carry it beyond its free flight's bound, its other listed
-// pairs that its overrun could bring to touch join them (exact_queue.cpp). A prediction
-// depends only on the two bodies' flights, so the end states are the clusters' to the bit
-// (tests/kernels/test_exact_collisions.cpp compares them). A step with a body in more than
-// twice events_per_body events is solved by clusters instead, whose fallback it is.
+// thread; a body whose velocity changes is predicted again against its candidate partners
+// (spares too), and, where its new velocity could carry it beyond its free flight's bound by
+// more than the overrun allowance, its other listed pairs that its overrun could bring to
+// touch join them (exact_queue.cpp). A prediction depends only on the two bodies' flights, so
+// the end states are the clusters' to the bit (tests/kernels/test_exact_collisions.cpp
+// compares them). A step with a body in more than twice events_per_body events is solved by
+// clusters instead, whose fallback it is; the clusters leave the spares out.
 //
 // Reads the bodies (their state at the step's start is never written here); writes the
 // `flown` list: the end states of the bodies whose velocity changed, which land_flown writes
@@ -62,6 +63,10 @@ struct ExactSettings {
   SolverSettings solver;        // the fallback's simultaneous solver
   // collide_exactly: the step's events in one queue rather than by cluster (the same bits).
   bool one_queue = false;
+  // The one queue's overrun allowance (D): how far beyond its free flight's bound a body may
+  // end the step before its listed pairs are checked against its overrun. The detection must
+  // have found the pairs within it (StepAhead::allowance, Candidate::spare). 0: every overrun.
+  double overrun_allowance = 0.0;
 };
 
 // One step's counts: collisions, virial, clusters and fallbacks of the final partition; the
@@ -69,6 +74,7 @@ struct ExactSettings {
 struct ExactStats {
   long long candidates = 0;       // listed pairs that could touch in the step
   long long apart = 0;            // of those, kept apart by their free flights (Candidate::apart)
+  long long spares = 0;           // pairs within the overrun allowance only (Candidate::spare)
   long long clusters = 0;         // clusters of candidates
   long long largest_cluster = 0;  // bodies in the largest
   long long collisions = 0;       // impulses given

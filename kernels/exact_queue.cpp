@@ -16,11 +16,14 @@ namespace {
 // does, against that overrun and the partner's: a pair that could then touch joins the
 // candidates (an "extra" pair) for the rest of the step. Every pair that touches in the end is
 // one of them: each body's last check was made with overruns at least its final one, and
-// its partner's. Confined (several ranks), the extra pairs stay between the bodies of the
-// candidates and joins given, and the caller's overrun check sees to the others, as it does
-// for clusters. A body that takes part in more than twice events_per_body events stops the
-// pass (a cluster past its cap, events_per_body per body, must hold one): the caller then
-// solves the step by clusters, whose fallback it is.
+// its partner's. With an overrun allowance A (ExactSettings::overrun_allowance), the detection
+// has made partners (spares) of the pairs that overruns of A each could bring to touch: a
+// pair beyond them touches only if one of its bodies overruns by more than A, so only such a
+// body's pairs are checked, with A for a partner that overran less. Confined (several ranks), the
+// extra pairs stay between the bodies of the candidates and joins given, and the caller's overrun
+// check sees to the others, as it does for clusters. A body that takes part in more than twice
+// events_per_body events stops the pass (a cluster past its cap, events_per_body per body, must
+// hold one): the caller then solves the step by clusters, whose fallback it is.
 class StepPass {
  public:
   bool run(const Context &cx, ExactScratch &scratch, const std::vector<Candidate> &candidates,
@@ -77,7 +80,7 @@ class StepPass {
 
   bool pass(const std::vector<Candidate> &candidates, bool screened) {
     for (const Candidate &c : candidates)
-      if (!(screened && c.apart)) predict(c.i, c.j, 0.0, false);
+      if (!c.spare && !(screened && c.apart)) predict(c.i, c.j, 0.0, false);
     const long long cap = 2 * cx_->settings.events_per_body;
     while (!queue_.empty()) {
       std::pop_heap(queue_.begin(), queue_.end(), Later());
@@ -170,18 +173,19 @@ class StepPass {
            point_speed(slots_.flight[s], cx_->shape.half_length()) * (cx_->dt - t) -
            2.0 * cx_->p.grow[body];
   }
-  // The largest overrun a body's listed pairs were checked with (0: never, or no slot).
+  // The largest overrun a body's listed pairs were checked with (0: never, or no slot), and
+  // at least the allowance, which the detection's spares cover.
   double checked(std::uint32_t body) const {
     const std::uint32_t s = scratch_->label[body];
-    return s == kNone ? 0.0 : checked_[s];
+    return std::max(cx_->settings.overrun_allowance, s == kNone ? 0.0 : checked_[s]);
   }
 
-  // Where body's overrun from t is above the one it was last checked with, its listed pairs
-  // that are not yet partners, checked as OverrunCheck does: those that could touch become
-  // extra pairs.
+  // Where body's overrun from t is above the allowance and the one it was last checked with,
+  // its listed pairs that are not yet partners, checked as OverrunCheck does: those that could
+  // touch become extra pairs.
   void check_overrun(std::uint32_t body, std::uint32_t s, double t) {
     const double overrun = overrun_from(s, body, t);
-    if (!(overrun > checked_[s])) return;
+    if (!(overrun > checked_[s]) || !(overrun > cx_->settings.overrun_allowance)) return;
     checked_[s] = overrun;
     const NeighborList &list = cx_->list;
     const std::uint32_t begin = list.pairs_start[body], end = list.pairs_start[body + 1];

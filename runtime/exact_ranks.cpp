@@ -487,7 +487,7 @@ void Simulation::exchange_exact_results(ExactRound &round,
 ExactStats Simulation::exact_counts(const ExactRound &round,
                                     const std::vector<FlownBody> &flown) const {
   ExactStats s = round.work;
-  s.collisions = s.clusters = s.largest_cluster = s.candidates = s.apart = 0;
+  s.collisions = s.clusters = s.largest_cluster = s.candidates = s.apart = s.spares = 0;
   s.virial = ExactSum();
   for (const FlownBody &f : flown) {
     if (f.body >= owned_) continue;
@@ -500,8 +500,10 @@ ExactStats Simulation::exact_counts(const ExactRound &round,
     s.largest_cluster = std::max<long long>(s.largest_cluster, round.size[b]);
   }
   for (const Candidate &c : candidates_) {
-    s.candidates += c.i < owned_;
-    s.apart += c.i < owned_ && c.apart;
+    if (c.i >= owned_) continue;
+    s.spares += c.spare;
+    s.candidates += !c.spare;
+    s.apart += c.apart && !c.spare;
   }
   return s;
 }

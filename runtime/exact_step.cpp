@@ -22,6 +22,19 @@
 
 namespace hardrod {
 
+namespace {
+
+// The one queue's overrun allowance per unit of dt (D per tau): a body whose velocity changes
+// has its listed pairs checked only once its overrun passes this speed times dt, and the
+// detection hands the queue the pairs within it as spares. Hard spheres at N = 32768, dt 4e-3,
+// skin 0.5, in turns (docs/performance.md), the step's time over its list builds' (which the
+// allowance leaves alone, the machine's load does not): 0 / 0.25 / 0.5 / 0.75 / 1 / 2 cost
+// 5.9 / 5.3 / 5.1 / 5.1 / 5.2 / 5.5 (the resolve alone 3.1 -> 2.3 at 0.5 to 0.75, the
+// detection 1.3 -> 1.4); the everyday nematic is about even from 0 to 2.
+constexpr double kOverrunAllowanceSpeed = 0.75;
+
+}  // namespace
+
 void Simulation::advance_exact(long long count) {
   {
     ScopedRegion r(timers_, Region::kIntegrate);
@@ -99,23 +112,27 @@ double Simulation::agreed_max(double value) {
 // if that carries it past the list's skin, a pair the list does not hold could have touched:
 // the step is solved again on a list built now (the bodies have not moved yet).
 DetectionStats Simulation::exact_collisions(ExactStats &stats) {
+  // One thread takes the events of a step (on several ranks: of the clusters it owns whole) in
+  // one queue; a team solves clusters in parallel (the same bits). Everyday nematic,
+  // equilibrated, dt 1e-3: one thread 108.5 -> 92.0 us per rod per tau with the queue; two
+  // threads 88-109 ns per rod-step by cluster against 99-112 in the queue
+  // (docs/performance.md). One rank's queue takes the spares of an overrun allowance
+  // (kOverrunAllowanceSpeed); ranks leave them out of their clusters' protocol.
+  exact_settings_.one_queue = omp_get_max_threads() == 1;
+  exact_settings_.overrun_allowance =
+      exact_settings_.one_queue && comm_.size() == 1 ? kOverrunAllowanceSpeed * scene_.dt : 0.0;
   for (int attempt = 0;; ++attempt) {
     DetectionStats detected;
     {
       ScopedRegion r(timers_, Region::kDetect);
-      const StepAhead ahead{particles_.grow.data(), scene_.dt, comm_.size() > 1};
+      const StepAhead ahead{particles_.grow.data(), scene_.dt, comm_.size() > 1,
+                            exact_settings_.overrun_allowance};
       detected = detect_contacts(particles_, scene_.box, scene_.shape, list_, candidates_, ahead);
       note_detection(detected);
     }
     double reach = 0.0;
     {
       ScopedRegion r(timers_, Region::kResolve);
-      // One thread takes the events of a step (on several ranks: of the clusters it owns
-      // whole) in one queue; a team solves clusters in parallel (the same bits). Everyday
-      // nematic, equilibrated, dt 1e-3: one thread 108.5 -> 92.0 us per rod per tau with the
-      // queue; two threads 88-109 ns per rod-step by cluster against 99-112 in the queue
-      // (docs/performance.md).
-      exact_settings_.one_queue = omp_get_max_threads() == 1;
       if (comm_.size() > 1) {
         stats = collide_on_ranks(reach);
       } else {

@@ -185,7 +185,7 @@ nlohmann::json exact_json(Simulation &sim) {
   ExactStats &t = r.totals;
   for (long long *v : {&t.candidates, &t.apart, &t.clusters, &t.collisions, &t.events, &t.searches,
                        &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown,
-                       &t.fallbacks, &t.grazes, &t.queued, &t.extra_pairs})
+                       &t.fallbacks, &t.grazes, &t.queued, &t.extra_pairs, &t.spares})
     *v = comm.sum("summary", *v);
   t.largest_cluster = static_cast<long long>(
       comm.max("summary", {static_cast<double>(mine.totals.largest_cluster)})[0]);
@@ -207,6 +207,7 @@ nlohmann::json exact_json(Simulation &sim) {
           {"grazes", t.grazes},
           {"queued_steps", t.queued},
           {"extra_pairs", t.extra_pairs},
+          {"spare_pairs", t.spares},
           {"rebuilt_in_step", r.rebuilt_in_step},
           {"collisions_per_step", per_step(t.collisions)},
           {"events_per_step", per_step(t.events)},

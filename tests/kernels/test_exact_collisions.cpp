@@ -227,7 +227,9 @@ TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
         if (more.empty()) break;
         joins.insert(joins.end(), more.begin(), more.end());
       }
-      if (!queue) EXPECT_EQ(static_cast<long long>(joins.size()), whole.regrown);
+      if (!queue) {
+        EXPECT_EQ(static_cast<long long>(joins.size()), whole.regrown);
+      }
       std::sort(rounds.begin(), rounds.end(), by_body);
       ASSERT_EQ(kernel.size(), rounds.size()) << "queue " << queue;
       EXPECT_GT(kernel.size(), 2u);
@@ -296,10 +298,13 @@ TEST(ExactCollisions, TheCandidatesOrderDoesNotChangeTheStep) {
 }
 
 // One rank takes a step's events in one queue (ExactSettings::one_queue): the same events as
-// the clusters', so the same end states to the bit. A Newton's cradle whose third body only a
-// body's overrun brings in (an extra pair), a hot, dense hard-sphere gas at a long step (the
-// clusters join), a relaxed nematic at a long step, and a row past the event cap, where the
-// queue gives up and the clusters' fallback solves the step.
+// the clusters', so the same end states to the bit, with or without an overrun allowance (the
+// detection's spares). A Newton's cradle whose third body only a body's overrun brings in (an
+// extra pair, or a spare); two cradles whose middle bodies, at rest, meet only because both
+// overrun, one by more than the allowance 0.1 dt and one by less (the first's check must count
+// the second's as the allowance); a hot, dense hard-sphere gas at a long step (the clusters
+// join), a relaxed nematic at a long step, and a row past the event cap, where the queue gives
+// up and the clusters' fallback solves the step.
 TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
   const Shape sphere{.length = 0.0};
   Scene hot = testing::hard_spheres(10, 0.30, 1e-3);
@@ -320,50 +325,67 @@ TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
   } cases[] = {
       {spheres_on_x({5.0, 6.0005, 7.03}, {1.0, 0.0, 0.0}), Box{{30.0, 20.0, 20.0}}, sphere, 0.05,
        100},
+      {spheres_on_x({5.0, 6.075, 7.105, 8.197}, {1.0, 0.0, 0.0, -1.0}), Box{{30.0, 20.0, 20.0}},
+       sphere, 0.1, 100},
       {hot_relaxed.particles(), hot.box, sphere, 4e-3, 100},
       {rods_relaxed.particles(), rods.box, rods.shape, 4e-3, 100},
       {spheres_on_x({5.0, 6.0 + 1e-11, 7.0 + 2e-11, 8.0 + 3e-11}, {1.0, 0.0, 0.0, 0.0}),
        Box{{30.0, 20.0, 20.0}}, sphere, 0.01, 0},
   };
-  long long extra = 0, collisions = 0, queued = 0, fallbacks = 0;
+  const auto by_body = [](const FlownBody &x, const FlownBody &y) { return x.body < y.body; };
+  long long extra = 0, spares = 0, collisions = 0, queued = 0, fallbacks = 0;
   for (const auto &c : cases) {
     Particles p = c.p;
-    NeighborList list;
-    list.skin = 1.0;
-    build_neighbor_list(list, p, p.size(), c.box, c.shape);
+    NeighborList built;
+    built.skin = 1.0;
+    build_neighbor_list(built, p, p.size(), c.box, c.shape);
     refresh_motion(p, p.size(), c.shape, 0.5 * c.dt);
     grow_bounds(p, p.size());
+    NeighborList list = built;
     std::vector<Candidate> candidates;
     detect_contacts(p, c.box, c.shape, list, candidates, StepAhead{p.grow.data(), c.dt});
     ExactSettings by_cluster;
     by_cluster.events_per_body = c.events_per_body;
-    ExactSettings in_queue = by_cluster;
-    in_queue.one_queue = true;
     ExactScratch scratch;
-    std::vector<FlownBody> want, got;
+    std::vector<FlownBody> want;
     const ExactStats a =
         collide_exactly(p, c.box, c.shape, list, candidates, c.dt, by_cluster, scratch, want);
-    const ExactStats b =
-        collide_exactly(p, c.box, c.shape, list, candidates, c.dt, in_queue, scratch, got);
     EXPECT_EQ(a.queued, 0);
-    EXPECT_EQ(b.collisions, a.collisions);
-    EXPECT_EQ(b.fallbacks, a.fallbacks);
-    EXPECT_EQ(b.virial.raw(), a.virial.raw());
-    const auto by_body = [](const FlownBody &x, const FlownBody &y) { return x.body < y.body; };
     std::sort(want.begin(), want.end(), by_body);
-    std::sort(got.begin(), got.end(), by_body);
-    ASSERT_EQ(got.size(), want.size());
-    for (std::size_t k = 0; k < got.size(); ++k)
-      EXPECT_TRUE(same_bits(got[k], want[k])) << "body " << got[k].body;
-    extra += b.extra_pairs;
-    collisions += b.collisions;
-    queued += b.queued;
-    fallbacks += b.fallbacks;
+    // The allowances: none, ones the cradles' overruns pass, and one they do not.
+    for (const double allowance : {0.0, 1e-3 * c.dt, 0.1 * c.dt, 2.0 * c.dt}) {
+      NeighborList own = built;
+      std::vector<Candidate> found;
+      detect_contacts(p, c.box, c.shape, own, found,
+                      StepAhead{p.grow.data(), c.dt, true, allowance});
+      ExactSettings in_queue = by_cluster;
+      in_queue.one_queue = true;
+      in_queue.overrun_allowance = allowance;
+      std::vector<FlownBody> got;
+      const ExactStats b =
+          collide_exactly(p, c.box, c.shape, own, found, c.dt, in_queue, scratch, got);
+      EXPECT_EQ(b.candidates, a.candidates) << "spares are not candidates";
+      EXPECT_EQ(b.apart, a.apart);
+      EXPECT_EQ(b.collisions, a.collisions);
+      EXPECT_EQ(b.fallbacks, a.fallbacks);
+      EXPECT_EQ(b.virial.raw(), a.virial.raw());
+      std::sort(got.begin(), got.end(), by_body);
+      ASSERT_EQ(got.size(), want.size());
+      for (std::size_t k = 0; k < got.size(); ++k)
+        EXPECT_TRUE(same_bits(got[k], want[k]))
+            << "body " << got[k].body << ", allowance " << allowance;
+      extra += b.extra_pairs;
+      spares += b.spares;
+      collisions += b.collisions;
+      queued += b.queued;
+      fallbacks += b.fallbacks;
+    }
   }
-  EXPECT_EQ(queued, 3) << "the row past the cap must leave the queue";
-  EXPECT_EQ(fallbacks, 1);
+  EXPECT_EQ(queued, 4 * 4) << "the row past the cap must leave the queue";
+  EXPECT_EQ(fallbacks, 4);
   EXPECT_GE(extra, 2) << "the test must exercise pairs a body's overrun brings in";
-  EXPECT_GT(collisions, 40) << "the test must exercise collisions";
+  EXPECT_GT(spares, 10) << "the test must exercise the allowance's spares";
+  EXPECT_GT(collisions, 4 * 40) << "the test must exercise collisions";
 }
 
 }  // namespace
