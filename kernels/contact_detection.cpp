@@ -149,13 +149,26 @@ void screen_candidates(const Particles &p, double h, double D, double dt, std::s
   }
 }
 
+// apart_in_flight for the batch's sphere candidates [0, count) (spheres_apart), in vector lanes.
+void screen_spheres(const Particles &p, double D, double dt, std::size_t count,
+                    DueBatch &__restrict batch) {
+  const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
+                           *__restrict vz = p.vz.data();
+#pragma omp simd
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
+    batch.quick_apart[k] = spheres_apart(batch.r(q), {vx[j] - vx[i], vy[j] - vy[i], vz[j] - vz[i]},
+                                         D, dt, kApartMargin);
+  }
+}
+
 // The exact method's candidate k of a batch (StepAhead, contact_detection.hpp), filled with
 // what the clusters read (ids, depth, `apart`, `spare`). Spheres have no axes, spins or
 // closest points.
 void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &batch, std::size_t k,
                      const StepAhead &ahead, Candidate &c) {
   const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
-  const double h = shape.half_length(), dt = ahead.dt;
+  const double h = shape.half_length();
   name_bodies(p, i, j, c);
   c.depth = shape.diameter - batch.distance[q];
   // measure_due's reach (the sum's order does not change its bits)
@@ -163,22 +176,16 @@ void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &bat
     c.spare = c.apart = true;
     return;
   }
-  if (h > 0.0 && batch.quick_apart[k]) {
-    c.apart = true;
+  if (h == 0.0 || batch.quick_apart[k]) {  // spheres: their whole test (screen_spheres)
+    c.apart = batch.quick_apart[k];
     return;
   }
+  // rods whose first screen failed: its refined test
   const Vec3 xi = p.position(i), rij = batch.r(q);
-  Flight fi{xi, {}, p.velocity(i), {}, 0.0}, fj{xi + rij, {}, p.velocity(j), {}, 0.0};
-  SegmentClosest sc;
-  if (h > 0.0) {
-    fi.e = p.axis(i);
-    fj.e = p.axis(j);
-    fi.w = p.angular_velocity(i);
-    fj.w = p.angular_velocity(j);
-    sc = batch.closest(q);
-  }
-  c.apart = h > 0.0 ? apart_after_screen(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin)
-                    : apart_in_flight(fi, fj, rij, sc, h, shape.diameter, dt, kApartMargin);
+  const Flight fi{xi, p.axis(i), p.velocity(i), p.angular_velocity(i), 0.0};
+  const Flight fj{xi + rij, p.axis(j), p.velocity(j), p.angular_velocity(j), 0.0};
+  c.apart =
+      apart_after_screen(fi, fj, rij, batch.closest(q), h, shape.diameter, ahead.dt, kApartMargin);
 }
 
 // The due pairs pairs[due[0, n)] measured a batch at a time (due_distances), and each pair's
@@ -213,6 +220,7 @@ void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const 
       candidates += d < D + (reach + spare);  // (a NaN is not)
     }
     if (ahead && h > 0.0) screen_candidates(p, h, D, ahead->dt, candidates, batch);
+    if (ahead && h == 0.0) screen_spheres(p, D, ahead->dt, candidates, batch);
     for (std::size_t k = 0; k < candidates; ++k) {
       Found &c = found.emplace_back();
       if constexpr (std::is_same_v<Found, Candidate>) {

@@ -356,12 +356,7 @@ Vec3 Flight::axis(double t) const {
 
 bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
                      double h, double D, double t_to, double margin) {
-  if (h <= 0.0) {  // the least distance of r + u s on [0, t_to]; NaN: not apart
-    const Vec3 u = b.v - a.v;
-    const double uu = norm2(u);
-    const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
-    return norm(r + s * u) - D > margin;
-  }
+  if (h <= 0.0) return spheres_apart(r, b.v - a.v, D, t_to, margin);
   return apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin) ||
          apart_after_screen(a, b, r, c, h, D, t_to, margin);
 }

@@ -6,6 +6,8 @@
 // skipped. Pure functions, no state, no threads, no I/O.
 #pragma once
 
+#include <algorithm>
+
 #include "kernels/segment_geometry.hpp"
 #include "kernels/vec3.hpp"
 
@@ -83,6 +85,14 @@ ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, 
 inline constexpr double kApartMargin = 1e-9;
 bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
                      double h, double D, double t_to, double margin);
+// Its test for spheres (h = 0), inline so that the detection runs it over a batch in vector
+// lanes (the same bits): the least distance of r + u s on [0, t_to], u = b.v - a.v, above
+// D + margin. NaN: not apart.
+inline bool spheres_apart(const Vec3 &r, const Vec3 &u, double D, double t_to, double margin) {
+  const double uu = norm2(u);
+  const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
+  return norm(r + s * u) - D > margin;
+}
 // Its refined test alone, for rods whose first screen (apart_along_gap, gap_bound.hpp) failed
 // already: the detection runs that screen over a batch in vector lanes (the same bits), and
 // its failures come here. apart_in_flight = apart_along_gap || apart_after_screen.
