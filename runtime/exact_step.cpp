@@ -29,8 +29,8 @@ namespace {
 // detection hands the queue the pairs within it as spares. Hard spheres at N = 32768, dt 4e-3,
 // skin 0.5, in turns (docs/performance.md), the step's time over its list builds' (which the
 // allowance leaves alone, the machine's load does not): 0 / 0.25 / 0.5 / 0.75 / 1 / 2 cost
-// 5.9 / 5.3 / 5.1 / 5.1 / 5.2 / 5.5 (the resolve alone 3.1 -> 2.3 at 0.5 to 0.75, the
-// detection 1.3 -> 1.4); the everyday nematic is about even from 0 to 2.
+// 5.9 / 5.3 / 5.1 / 5.1 / 5.2 / 5.5 (the resolve alone 3.1 -> 2.2-2.3 at 0.5 to 0.75, the
+// detection 1.29 -> 1.35-1.42); the everyday nematic is about even from 0 to 2.
 constexpr double kOverrunAllowanceSpeed = 0.75;
 
 }  // namespace
