@@ -45,7 +45,7 @@ SYSTEMS = {
                 "goal": 0.05, "anchor_cost": 0.21},
     "spheres": {"scene": "scenes/hard-spheres.toml",
                 "sets": {"system.n": "32768", "init.lattice": "[32, 32, 32]"}, "relax_skin": 0.3,
-                "configs": "2e-3:0.3", "tau": 2.0, "relax_tau": 4.0,
+                "configs": "4e-3:0.5", "tau": 2.0, "relax_tau": 4.0,
                 "goal": 0.0235, "anchor_cost": 0.1136},
 }
 
@@ -61,7 +61,8 @@ def add_arguments(sp):
                          "built when missing)")
     sp.add_argument("--configs", default=None,
                     help="the exact method's dt:skin, comma-separated (default: nematic "
-                         "1e-3:1.0,2e-3:1.0; spheres 2e-3:0.3)")
+                         "1e-3:1.0,2e-3:1.0; spheres 4e-3:0.5, the cheapest against event-driven MD "
+                         "on 2026-11-26)")
     sp.add_argument("--rounds", type=int, default=6, help="rounds in turns (default 6)")
     sp.add_argument("--tau", type=float, default=None,
                     help="simulated time of each run (default: nematic 6 tau, spheres 2 tau)")

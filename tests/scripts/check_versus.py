@@ -47,8 +47,8 @@ def flags():
                                                       for l in lines),
               f"spheres: the relaxation, the anchor and one exact run, all at N = 32768 ({len(lines)})")
         check("init.lattice" in lines[0] and not any("init.lattice" in l for l in lines[1:]) and
-              "run.skin=0.3" in lines[2] and "run.steps=1000" in lines[2],
-              "spheres: the lattice only for the relaxation; dt 2e-3, skin 0.3, 2 tau by default")
+              "run.dt=0.004" in lines[2] and "run.skin=0.5" in lines[2] and "run.steps=500" in lines[2],
+              "spheres: the lattice only for the relaxation; dt 4e-3, skin 0.5, 2 tau by default")
         check(not any(pathlib.Path(tmp).glob("versus-*")), "the dry run writes nothing")
 
 
