@@ -193,9 +193,9 @@ void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &bat
 // reach become contacts. With `ahead` (the exact method's Candidates, see
 // contact_detection.hpp) the bounds already hold the step's whole flight while the bodies are
 // still at its start: a candidate is a pair whose gap is below the two flights (plus twice
-// the allowance: spares), screened (screen_candidates, exact_candidate), and the slack is
-// renewed for the start. Without (the
-// midpoint method's Contacts), a contact is an overlap (rare), measured again by make_contact.
+// the allowance: spares), screened (screen_candidates, screen_spheres, exact_candidate), and
+// the slack is renewed for the start. Without (the midpoint method's Contacts), a contact is
+// an overlap (rare), measured again by make_contact.
 template <class Found>
 void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
                  NeighborList &list, const std::uint32_t *due, std::size_t n,
