@@ -17,9 +17,10 @@ namespace hardrod::exact_events {
 inline constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
 // An upper bound on how fast any point of a body moves: |v| + L/2 |w|, with the relative
-// 1e-12 that refresh_motion's growth carries for the rounding.
+// 1e-12 that refresh_motion's growth carries for the rounding. A sphere's spin moves no point
+// of it (h = 0: the term is 0, and |v| + 0 is |v|), so its root is not taken.
 inline double point_speed(const Flight &f, double h) {
-  return (norm(f.v) + h * norm(f.w)) * (1.0 + 1e-12);
+  return (norm(f.v) + (h > 0.0 ? h * norm(f.w) : 0.0)) * (1.0 + 1e-12);
 }
 
 // A predicted contact (or, with `resume`, a search that used up its iterations and goes on
