@@ -450,9 +450,13 @@ void watched_in_team(const Particles &p, const Box &box, const Shape &shape, Nei
   shared.depth[tid] = max_depth;
 }
 
+// How a pass over every pair uses the list's near pairs (NearPairs): not at all (the reference
+// pass), or it reads them alone while they hold and makes them again when they do not.
+enum class NearUse { none, keep };
+
 template <class Found>
 DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape, NeighborList &list,
-                         std::vector<Found> &contacts, const StepAhead *ahead);
+                         std::vector<Found> &contacts, const StepAhead *ahead, NearUse near);
 
 // finish_watched_detection, for contacts (ahead null) or candidates.
 template <class Found>
@@ -462,7 +466,7 @@ DetectionStats finish_watched(const Particles &p, const Box &box, const Shape &s
   if (!shared.watching) {  // too many flagged: the full pass, now and until the next build
     list.watching = false;
     if (list.watched_steps == 0) list.unarmed_builds = kUnarmedBuilds;  // at once: not worth it
-    return all_pairs(p, box, shape, list, contacts, ahead);
+    return all_pairs(p, box, shape, list, contacts, ahead, NearUse::keep);
   }
   DetectionStats out;
   out.watched = true;
@@ -490,7 +494,7 @@ DetectionStats finish_watched(const Particles &p, const Box &box, const Shape &s
 template <class Found>
 DetectionStats detect(const Particles &p, const Box &box, const Shape &shape, NeighborList &list,
                       std::vector<Found> &contacts, const StepAhead *ahead) {
-  if (!list.watching) return all_pairs(p, box, shape, list, contacts, ahead);
+  if (!list.watching) return all_pairs(p, box, shape, list, contacts, ahead, NearUse::keep);
   // Threaded exactly when the integration is (particles.hpp).
   const int nthreads = team_threads(static_cast<long>(list.active));
   WatchedTeam<Found> shared(nthreads);
@@ -499,50 +503,136 @@ DetectionStats detect(const Particles &p, const Box &box, const Shape &shape, Ne
   return finish_watched(p, box, shape, list, shared, contacts, ahead);
 }
 
+// Whether the list's near pairs still hold every pair that can be due: made by a pass with
+// the same spare, and no body's bound fell since (a build resets them) nor grew by half their
+// reach (with 1e-9 for rounding). One pass over the bodies.
+bool near_holds(const NearPairs &near, const double *bound, std::size_t n, double spare) {
+  if (!near.valid || near.spare != spare || near.base.size() != n) return false;
+  const double *base = near.base.data();
+  double largest = 0.0, smallest = 0.0, sum = 0.0;
+#pragma omp simd reduction(max : largest) reduction(min : smallest) reduction(+ : sum)
+  for (std::size_t i = 0; i < n; ++i) {
+    const double g = bound[i] - base[i];
+    largest = largest > g ? largest : g;
+    smallest = smallest < g ? smallest : g;
+    sum += g;  // a NaN, which the extremes would drop, stays in the sum
+  }
+  return std::isfinite(sum) && smallest >= 0.0 && 2.0 * largest + 1e-9 < near.reach;
+}
+
+// The near pairs' reach and base for a pass that makes them: kNearSteps times twice the
+// largest per-step path (2 grow) of bodies [0, n). False, and the list's near pairs off until
+// its next build, where that reach is more than kNearSkinShare of the skin.
+bool start_near(NearPairs &near, const Particles &p, std::size_t n, double skin, double spare) {
+  double largest = 0.0;
+  const double *grow = p.grow.data();
+#pragma omp simd reduction(max : largest)
+  for (std::size_t i = 0; i < n; ++i) largest = largest > grow[i] ? largest : grow[i];
+  near.reach = kNearSteps * 2.0 * (2.0 * largest);
+  near.valid = false;
+  if (!(near.reach <= kNearSkinShare * skin)) {
+    near.off = true;
+    return false;
+  }
+  near.spare = spare;
+  near.base.assign(p.motion_bound.begin(), p.motion_bound.begin() + static_cast<long>(n));
+  near.valid = true;
+  ++near.made;
+  return true;
+}
+
+// Pairs at[first, last) (without Indexed: the pair indices themselves) tested for due (their
+// bounds, plus `spare`, used up the slack: the others cannot have closed their gap yet),
+// listed without a branch and measured a batch at a time; with Make, those whose slack left is
+// below `reach` are listed in `near` too.
+template <bool Make, bool Indexed, class Found>
+void pass_pairs(const Particles &p, const Box &box, const Vec3 &inverse, const Shape &shape,
+                NeighborList &list, const std::uint32_t *at, long first, long last,
+                const StepAhead *ahead, double spare, double reach,
+                std::vector<std::uint32_t> &near, std::vector<Found> &mine, long long &tests,
+                double &max_depth) {
+  std::uint32_t due[kDueBatch];
+  std::size_t n = 0, m = 0;
+  if constexpr (Make) near.resize(static_cast<std::size_t>(last - first));
+  const ListedPair *pairs = list.pairs.data();
+  const double *bound = p.motion_bound.data();
+  for (long q = first; q < last; ++q) {
+    const std::uint32_t k = Indexed ? at[q] : static_cast<std::uint32_t>(q);
+    const double moved = (bound[pairs[k].first] + bound[pairs[k].second]) + spare;
+    due[n] = k;
+    n += moved >= pairs[k].recheck_at;
+    if constexpr (Make) {
+      near[m] = k;
+      m += pairs[k].recheck_at - moved < reach;
+    }
+    if (n == kDueBatch) {
+      measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
+      tests += static_cast<long long>(n);
+      n = 0;
+    }
+  }
+  if (n > 0) {  // the last batch
+    measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
+    tests += static_cast<long long>(n);
+  }
+  if constexpr (Make) near.resize(m);
+}
+
+// The pass over every listed pair (detect_contacts_all_pairs), or, with NearUse::keep, over
+// the list's near pairs while they hold (near_holds), made again by the full pass when not.
+// The same pairs are due either way, measured in list order.
 template <class Found>
 DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape, NeighborList &list,
-                         std::vector<Found> &contacts, const StepAhead *ahead) {
+                         std::vector<Found> &contacts, const StepAhead *ahead, NearUse use) {
   const int nthreads = omp_get_max_threads();
   // The threads' contacts, their storage kept from step to step (thousands of candidates a
   // step would otherwise be grown from nothing), reached by the team through a reference:
-  // inside the parallel region a thread_local name is each thread's own.
+  // inside the parallel region a thread_local name is each thread's own. So too their near
+  // pairs.
   thread_local std::vector<std::vector<Found>> storage;
+  thread_local std::vector<std::vector<std::uint32_t>> near_storage;
   std::vector<std::vector<Found>> &found = storage;
+  std::vector<std::vector<std::uint32_t>> &near_found = near_storage;
   found.resize(static_cast<std::size_t>(nthreads));
+  near_found.resize(static_cast<std::size_t>(nthreads));
   for (std::vector<Found> &f : found) f.clear();
   long long tests = 0;
   double max_depth = 0.0;
-  const std::size_t npairs = list.pair_count();
-  const double *bound = p.motion_bound.data();
   const Vec3 inverse = box.inverse_length();
+  const double spare = ahead ? 2.0 * ahead->allowance : 0.0;
+  NearPairs &near = list.near;
+  const bool keep = use == NearUse::keep && !near.off;
+  const bool use_near = keep && near_holds(near, p.motion_bound.data(), list.active, spare);
+  const bool make_near = keep && !use_near && start_near(near, p, list.active, list.skin, spare);
+  const std::uint32_t *at = use_near ? near.index.data() : nullptr;
+  const long count = static_cast<long>(use_near ? near.index.size() : list.pair_count());
+  int team = 1;
 #pragma omp parallel reduction(+ : tests) reduction(max : max_depth) \
     if (static_cast<long>(list.active) > kParallelBodies)
   {
-    auto &mine = found[omp_get_thread_num()];
-    const auto [lo, hi] =
-        team_block(static_cast<long>(npairs), omp_get_thread_num(), omp_get_num_threads());
-    // The pairs whose bounds (plus twice the allowance) used up the slack (the others cannot
-    // have closed their gap yet), listed without a branch and measured a batch at a time.
-    std::uint32_t due[kDueBatch];
-    std::size_t n = 0;
-    const ListedPair *pairs = list.pairs.data();
-    const double spare = ahead ? 2.0 * ahead->allowance : 0.0;
-    for (long k = lo; k < hi; ++k) {
-      due[n] = static_cast<std::uint32_t>(k);
-      n += (bound[pairs[k].first] + bound[pairs[k].second]) + spare >= pairs[k].recheck_at;
-      if (n == kDueBatch) {
-        measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
-        tests += static_cast<long long>(n);
-        n = 0;
-      }
-    }
-    if (n > 0) {  // the last batch
-      measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
-      tests += static_cast<long long>(n);
-    }
+    const int tid = omp_get_thread_num();
+    if (tid == 0) team = omp_get_num_threads();
+    const auto [lo, hi] = team_block(count, tid, omp_get_num_threads());
+    std::vector<std::uint32_t> &mine_near = near_found[static_cast<std::size_t>(tid)];
+    if (make_near)
+      pass_pairs<true, false>(p, box, inverse, shape, list, at, lo, hi, ahead, spare, near.reach,
+                              mine_near, found[tid], tests, max_depth);
+    else if (use_near)
+      pass_pairs<false, true>(p, box, inverse, shape, list, at, lo, hi, ahead, spare, 0.0,
+                              mine_near, found[tid], tests, max_depth);
+    else
+      pass_pairs<false, false>(p, box, inverse, shape, list, at, lo, hi, ahead, spare, 0.0,
+                               mine_near, found[tid], tests, max_depth);
+  }
+  if (make_near) {  // the threads' blocks in order: list order
+    near.index.clear();
+    for (int t = 0; t < team; ++t)
+      near.index.insert(near.index.end(), near_found[t].begin(), near_found[t].end());
   }
   gather(found, contacts, ahead);
-  return {tests, max_depth};
+  DetectionStats out{tests, max_depth};
+  out.near = use_near;
+  return out;
 }
 
 }  // namespace
@@ -571,13 +661,13 @@ DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
                                          NeighborList &list, std::vector<Contact> &contacts) {
-  return all_pairs(p, box, shape, list, contacts, nullptr);
+  return all_pairs(p, box, shape, list, contacts, nullptr, NearUse::none);
 }
 
 DetectionStats detect_contacts_all_pairs(const Particles &p, const Box &box, const Shape &shape,
                                          NeighborList &list, std::vector<Candidate> &candidates,
                                          const StepAhead &ahead) {
-  return all_pairs(p, box, shape, list, candidates, &ahead);
+  return all_pairs(p, box, shape, list, candidates, &ahead, NearUse::none);
 }
 
 }  // namespace hardrod

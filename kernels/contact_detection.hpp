@@ -22,6 +22,7 @@ struct DetectionStats {
   long long narrow_phase_tests = 0;  // segment distances computed this step
   double max_depth = 0.0;            // deepest overlap this step (0 if none)
   bool watched = false;              // through the watches, not a pass over every pair
+  bool near = false;                 // a pass over the list's near pairs only (NearPairs)
 };
 
 // The midpoint method's contacts: the pairs that overlap.

@@ -610,6 +610,7 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   list.active = count;
   if (count > owned) keep_first_ring(list, p, count, owned);
   list.watched_steps = 0;
+  list.near.valid = list.near.off = false;
   if (list.unarmed_builds > 0) {  // the full pass until the next build: no watches to set
     --list.unarmed_builds;
     index_pairs(list);
@@ -651,6 +652,7 @@ void arm_watches(NeighborList &list) {
   list.watch.resize(n);
   list.flagged.assign(n + 8, 0);  // room for the last word's read
   list.watching = true;
+  list.near.valid = false;
 #pragma omp parallel for schedule(static) if (static_cast <long>(n) > kParallelBodies)
   for (std::size_t i = 0; i < n; ++i) {
     double w = std::numeric_limits<double>::infinity();

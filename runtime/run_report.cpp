@@ -318,10 +318,12 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
   summary["state_checksum"] = sim.state_checksum();
   summary.update(provenance_json(agreed_provenance(comm)));
   add_timers(summary, sim);
-  {  // the share of detections that went through the watches, over all ranks
+  {  // the shares of detections that went through the watches, or the near pairs, over all ranks
     const long long all = comm.sum("summary", sim.detections());
     const long long watched = comm.sum("summary", sim.detections_watched());
+    const long long near = comm.sum("summary", sim.detections_near());
     summary["detect_watched_share"] = all > 0 ? static_cast<double>(watched) / all : 0.0;
+    summary["detect_near_share"] = all > 0 ? static_cast<double>(near) / all : 0.0;
   }
   if (scene.method == kExact) summary["exact"] = exact_json(sim);
   summary["hardware_counters"] = counters_json(counters);

@@ -331,6 +331,7 @@ DetectionStats Simulation::detect() {
 void Simulation::note_detection(const DetectionStats &detected) {
   ++detections_;
   detections_watched_ += detected.watched;
+  detections_near_ += detected.near;
   if (!(detected.max_depth <= scene_.max_overlap)) {
     pending_depth_ = std::isnan(detected.max_depth) ? 1e300 : detected.max_depth;
     pending_step_ = step_ + 1;

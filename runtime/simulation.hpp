@@ -165,6 +165,7 @@ class Simulation {
   // (kernels/neighbor_list.hpp) rather than a pass over every pair: a cost diagnostic.
   long long detections() const { return detections_; }
   long long detections_watched() const { return detections_watched_; }
+  long long detections_near() const { return detections_near_; }
   Communicator &comm() { return comm_; }
   const Domain &domain() const { return domain_; }
   const BalanceOptions &balance_options() const { return balance_; }
@@ -321,7 +322,7 @@ class Simulation {
   std::unordered_map<std::int64_t, std::uint32_t> index_;  // id -> local index
   std::vector<char> shared_;  // by local index: a shadow, or an owned body held elsewhere
   NeighborList list_;
-  long long detections_ = 0, detections_watched_ = 0;
+  long long detections_ = 0, detections_watched_ = 0, detections_near_ = 0;
   std::vector<Contact> contacts_;      // the midpoint method's, each step
   std::vector<Candidate> candidates_;  // the exact method's, each step
   // Bodies whose velocities a step changed (their motion constants are then due): those
