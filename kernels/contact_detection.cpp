@@ -557,13 +557,16 @@ void pass_pairs(const Particles &p, const Box &box, const Vec3 &inverse, const S
   const ListedPair *pairs = list.pairs.data();
   const double *bound = p.motion_bound.data();
   for (long q = first; q < last; ++q) {
+    // (pairs[q] itself without the index: the loop then steps a pointer, as a 32-bit index
+    // would not let it)
     const std::uint32_t k = Indexed ? at[q] : static_cast<std::uint32_t>(q);
-    const double moved = (bound[pairs[k].first] + bound[pairs[k].second]) + spare;
+    const ListedPair &pair = Indexed ? pairs[k] : pairs[q];
+    const double moved = (bound[pair.first] + bound[pair.second]) + spare;
     due[n] = k;
-    n += moved >= pairs[k].recheck_at;
+    n += moved >= pair.recheck_at;
     if constexpr (Make) {
       near[m] = k;
-      m += pairs[k].recheck_at - moved < reach;
+      m += pair.recheck_at - moved < reach;
     }
     if (n == kDueBatch) {
       measure_due(p, box, inverse, shape, list, due, n, ahead, mine, max_depth);
