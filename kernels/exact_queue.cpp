@@ -55,7 +55,6 @@ class StepPass {
     checked_.clear();
     events_.clear();
     edges_.clear();
-    queue_.clear();
     stats_ = {};
   }
 
@@ -79,13 +78,12 @@ class StepPass {
   }
 
   bool pass(const std::vector<Candidate> &candidates, bool screened) {
+    queue_.start(cx_->dt, candidates.size());
     for (const Candidate &c : candidates)
       if (!c.spare && !(screened && c.apart)) predict(c.i, c.j, 0.0, false);
     const long long cap = 2 * cx_->settings.events_per_body;
     while (!queue_.empty()) {
-      std::pop_heap(queue_.begin(), queue_.end(), Later());
-      const Event ev = queue_.back();
-      queue_.pop_back();
+      const Event ev = queue_.pop();
       if (ev.version_a != version(ev.a) || ev.version_b != version(ev.b)) continue;
       ++stats_.events;
       const std::uint32_t sa = slot(ev.a), sb = slot(ev.b);
@@ -141,8 +139,7 @@ class StepPass {
     stats_.root_iterations += ct.iterations;
     if (!ct.found && ct.converged) return;
     stats_.unconverged += !ct.converged;
-    queue_.push_back({ct.t, cx_->p.id[a], cx_->p.id[b], a, b, version(a), version(b), !ct.found});
-    std::push_heap(queue_.begin(), queue_.end(), Later());
+    queue_.push({ct.t, cx_->p.id[a], cx_->p.id[b], a, b, version(a), version(b), !ct.found});
   }
 
   // Bodies a and b (slots sa, sb; a has the lower id) touching at t: as ClusterPass::collide.
@@ -234,7 +231,7 @@ class StepPass {
     std::uint32_t other, next;  // next: the body's next edge, kNone at the end
   };
   std::vector<Edge> edges_;
-  std::vector<Event> queue_;
+  EventCalendar queue_;
   ExactStats stats_;
 };
 

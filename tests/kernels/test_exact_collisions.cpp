@@ -14,6 +14,7 @@
 
 #include "kernels/contact_detection.hpp"
 #include "kernels/exact_collisions.hpp"
+#include "kernels/exact_events.hpp"
 #include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "runtime/simulation.hpp"
@@ -386,6 +387,65 @@ TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
   EXPECT_GE(extra, 2) << "the test must exercise pairs a body's overrun brings in";
   EXPECT_GT(spares, 10) << "the test must exercise the allowance's spares";
   EXPECT_GT(collisions, 4 * 40) << "the test must exercise collisions";
+}
+
+}  // namespace
+namespace {
+
+// The one queue's calendar (exact_events::EventCalendar) must give the events in a heap's
+// order (Later: by time, ties by ids) whatever comes: many ties in time and ids, events at
+// 0 and at dt, pushes between pops from the time of the last one taken on, now and then one
+// earlier than that, a calendar used again for a second step. It fails if a bucket's chain
+// gives any but its earliest, or if the buckets' order broke ties of time.
+TEST(ExactEvents, TheCalendarGivesTheHeapsOrder) {
+  using exact_events::Event;
+  using exact_events::EventCalendar;
+  using exact_events::Later;
+  std::mt19937_64 rng(17);
+  const double dt = 4e-3;
+  std::uniform_int_distribution<int> grid(0, 64), ids(0, 5), coin(0, 99);
+  const auto event = [&](double from) {
+    Event e;
+    const double u = static_cast<double>(grid(rng)) / 64.0;  // ties in time, 0 and dt included
+    e.t = from + u * (dt - from);
+    e.id_a = ids(rng);
+    e.id_b = e.id_a + 1 + ids(rng);
+    e.a = static_cast<std::uint32_t>(rng() % 1000);
+    e.version_a = static_cast<std::uint32_t>(rng() % 7);
+    return e;
+  };
+  EventCalendar calendar;
+  for (int step = 0; step < 2; ++step) {
+    std::vector<Event> heap;
+    calendar.start(dt, 400);
+    const auto push = [&](const Event &e) {
+      calendar.push(e);
+      heap.push_back(e);
+      std::push_heap(heap.begin(), heap.end(), Later());
+    };
+    for (int k = 0; k < 400; ++k) push(event(0.0));
+    long taken = 0, earlier = 0;
+    while (!heap.empty()) {
+      ASSERT_FALSE(calendar.empty());
+      std::pop_heap(heap.begin(), heap.end(), Later());
+      const Event want = heap.back();
+      heap.pop_back();
+      const Event got = calendar.pop();
+      ASSERT_EQ(got.t, want.t) << "event " << taken;
+      ASSERT_EQ(got.id_a, want.id_a) << "event " << taken;
+      ASSERT_EQ(got.id_b, want.id_b) << "event " << taken;
+      ++taken;
+      if (taken > 3000) continue;  // then empty both
+      for (int k = coin(rng) % 3; k > 0; --k) push(event(got.t));
+      if (coin(rng) == 0) {
+        push(event(0.5 * got.t));  // earlier than the last one taken
+        ++earlier;
+      }
+    }
+    EXPECT_TRUE(calendar.empty());
+    EXPECT_GT(taken, 3000);
+    EXPECT_GT(earlier, 10) << "the test must push earlier events too";
+  }
 }
 
 }  // namespace
