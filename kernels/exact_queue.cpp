@@ -34,9 +34,9 @@ class StepPass {
     confined_ = confined;
     clear();
     scratch.first_edge.resize(cx.list.active, kNone);
-    for (const Candidate &c : candidates) link(c.i, c.j);
+    for (const Candidate &c : candidates) link(c.i, c.j, true);  // id_i < id_j
     for (const auto &[a, b] : joins)
-      if (!partners(a, b)) link(a, b);
+      if (!partners(a, b)) link(a, b, cx.p.id[a] < cx.p.id[b]);
     const bool done = pass(candidates, screened(cx.settings));
     if (done) {
       stats += stats_;
@@ -59,22 +59,18 @@ class StepPass {
   }
 
   // Each body's partners, a list through edges_ from first_edge[body] (latest first): the other
-  // bodies of its candidates, joins and extra pairs. Only the bodies linked are touched, and
-  // unlink clears them.
-  void link(std::uint32_t a, std::uint32_t b) {
+  // bodies of its candidates, joins and extra pairs, each with whether its id is the higher
+  // (`a_lower`: id[a] < id[b]), so that a prediction needs not load the two ids to order them.
+  // Only the bodies linked are touched, and unlink clears them.
+  void link(std::uint32_t a, std::uint32_t b, bool a_lower) {
     std::vector<std::uint32_t> &first = scratch_->first_edge;
-    edges_.push_back({b, first[a]});
+    edges_.push_back({b, first[a], a_lower});
     first[a] = static_cast<std::uint32_t>(edges_.size() - 1);
-    edges_.push_back({a, first[b]});
+    edges_.push_back({a, first[b], !a_lower});
     first[b] = static_cast<std::uint32_t>(edges_.size() - 1);
   }
   void unlink() {
     for (const Edge &e : edges_) scratch_->first_edge[e.other] = kNone;
-  }
-  template <class F>
-  void each_partner(std::uint32_t body, F &&f) const {
-    for (std::uint32_t k = scratch_->first_edge[body]; k != kNone; k = edges_[k].next)
-      f(edges_[k].other);
   }
 
   bool pass(const std::vector<Candidate> &candidates, bool screened) {
@@ -129,9 +125,8 @@ class StepPass {
     return f;
   }
 
-  // As ClusterPass::predict, for bodies.
+  // As ClusterPass::predict, for bodies a and b, a with the lower id.
   void predict(std::uint32_t a, std::uint32_t b, double t, bool again) {
-    if (cx_->p.id[a] > cx_->p.id[b]) std::swap(a, b);
     const ContactTime ct = first_contact(flight(a), image_of(a, b), cx_->shape.half_length(),
                                          cx_->shape.diameter, t, cx_->dt, cx_->settings.contact);
     ++stats_.searches;
@@ -201,15 +196,20 @@ class StepPass {
                                checked(other)) ||
           partners(body, other))
         continue;
-      link(body, other);
+      link(body, other, cx_->p.id[body] < cx_->p.id[other]);
       ++stats_.extra_pairs;
     }
   }
 
   void predict_partners(std::uint32_t body, std::uint32_t skip, double t) {
-    each_partner(body, [&](std::uint32_t other) {
-      if (other != skip) predict(body, other, t, true);
-    });
+    for (std::uint32_t k = scratch_->first_edge[body]; k != kNone; k = edges_[k].next) {
+      const Edge &e = edges_[k];
+      if (e.other == skip) continue;
+      if (e.other_higher)
+        predict(body, e.other, t, true);
+      else
+        predict(e.other, body, t, true);
+    }
   }
 
   // The bodies whose velocity changed, flown to the step's end (in the order of their first
@@ -229,6 +229,7 @@ class StepPass {
   std::vector<long long> events_;
   struct Edge {
     std::uint32_t other, next;  // next: the body's next edge, kNone at the end
+    bool other_higher;          // the other body's id is the higher
   };
   std::vector<Edge> edges_;
   EventCalendar queue_;
