@@ -581,6 +581,28 @@ void pass_pairs(const Particles &p, const Box &box, const Vec3 &inverse, const S
   if constexpr (Make) near.resize(m);
 }
 
+// Which pairs a pass reads: the near pairs alone (`at`, while they hold), or every pair,
+// making the near pairs again (`make`) where the list keeps them.
+struct PassPlan {
+  bool use_near = false, make_near = false;
+  const std::uint32_t *at = nullptr;
+  long count = 0;
+  double spare = 0.0;  // twice StepAhead's allowance
+};
+
+PassPlan plan_pass(const Particles &p, NeighborList &list, const StepAhead *ahead, NearUse use) {
+  PassPlan plan;
+  plan.spare = ahead ? 2.0 * ahead->allowance : 0.0;
+  NearPairs &near = list.near;
+  const bool keep = use == NearUse::keep && !near.off;
+  plan.use_near = keep && near_holds(near, p.motion_bound.data(), list.active, plan.spare);
+  plan.make_near =
+      keep && !plan.use_near && start_near(near, p, list.active, list.skin, plan.spare);
+  plan.at = plan.use_near ? near.index.data() : nullptr;
+  plan.count = static_cast<long>(plan.use_near ? near.index.size() : list.pair_count());
+  return plan;
+}
+
 // The pass over every listed pair (detect_contacts_all_pairs), or, with NearUse::keep, over
 // the list's near pairs while they hold (near_holds), made again by the full pass when not.
 // The same pairs are due either way, measured in list order.
@@ -602,39 +624,36 @@ DetectionStats all_pairs(const Particles &p, const Box &box, const Shape &shape,
   long long tests = 0;
   double max_depth = 0.0;
   const Vec3 inverse = box.inverse_length();
-  const double spare = ahead ? 2.0 * ahead->allowance : 0.0;
-  NearPairs &near = list.near;
-  const bool keep = use == NearUse::keep && !near.off;
-  const bool use_near = keep && near_holds(near, p.motion_bound.data(), list.active, spare);
-  const bool make_near = keep && !use_near && start_near(near, p, list.active, list.skin, spare);
-  const std::uint32_t *at = use_near ? near.index.data() : nullptr;
-  const long count = static_cast<long>(use_near ? near.index.size() : list.pair_count());
+  const PassPlan plan = plan_pass(p, list, ahead, use);
+  const double reach = plan.make_near ? list.near.reach : 0.0;
   int team = 1;
 #pragma omp parallel reduction(+ : tests) reduction(max : max_depth) \
     if (static_cast<long>(list.active) > kParallelBodies)
   {
     const int tid = omp_get_thread_num();
     if (tid == 0) team = omp_get_num_threads();
-    const auto [lo, hi] = team_block(count, tid, omp_get_num_threads());
-    std::vector<std::uint32_t> &mine_near = near_found[static_cast<std::size_t>(tid)];
-    if (make_near)
-      pass_pairs<true, false>(p, box, inverse, shape, list, at, lo, hi, ahead, spare, near.reach,
-                              mine_near, found[tid], tests, max_depth);
-    else if (use_near)
-      pass_pairs<false, true>(p, box, inverse, shape, list, at, lo, hi, ahead, spare, 0.0,
-                              mine_near, found[tid], tests, max_depth);
+    const auto [lo, hi] = team_block(plan.count, tid, omp_get_num_threads());
+    auto &mine_near = near_found[static_cast<std::size_t>(tid)];
+    const auto pass = [&](auto make, auto indexed) {
+      pass_pairs<decltype(make)::value, decltype(indexed)::value>(
+          p, box, inverse, shape, list, plan.at, lo, hi, ahead, plan.spare, reach, mine_near,
+          found[tid], tests, max_depth);
+    };
+    if (plan.make_near)
+      pass(std::true_type{}, std::false_type{});
+    else if (plan.use_near)
+      pass(std::false_type{}, std::true_type{});
     else
-      pass_pairs<false, false>(p, box, inverse, shape, list, at, lo, hi, ahead, spare, 0.0,
-                               mine_near, found[tid], tests, max_depth);
+      pass(std::false_type{}, std::false_type{});
   }
-  if (make_near) {  // the threads' blocks in order: list order
-    near.index.clear();
+  if (plan.make_near) {  // the threads' blocks in order: list order
+    list.near.index.clear();
     for (int t = 0; t < team; ++t)
-      near.index.insert(near.index.end(), near_found[t].begin(), near_found[t].end());
+      list.near.index.insert(list.near.index.end(), near_found[t].begin(), near_found[t].end());
   }
   gather(found, contacts, ahead);
   DetectionStats out{tests, max_depth};
-  out.near = use_near;
+  out.near = plan.use_near;
   return out;
 }
 
