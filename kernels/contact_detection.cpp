@@ -78,10 +78,13 @@ struct DueBatch {
   double rx[kDueBatch], ry[kDueBatch], rz[kDueBatch];
   double s[kDueBatch], t[kDueBatch], gx[kDueBatch], gy[kDueBatch], gz[kDueBatch];
   double dist2[kDueBatch], distance[kDueBatch];
-  // The candidates among them (within reach), and which of those the quick screen proved
-  // apart (screen_candidates).
+  // The candidates among them (within reach), which of those the screens proved apart
+  // (screen_candidates, refine_candidates), and the rods the first screen left for the second.
+  // `beyond`: past the two flights' reach, within the allowance only (spares).
   std::uint32_t candidate[kDueBatch];
-  std::uint8_t quick_apart[kDueBatch];
+  std::uint8_t apart[kDueBatch], beyond[kDueBatch];
+  std::uint32_t refine[kDueBatch];
+  std::uint8_t refined[kDueBatch];
 
   Vec3 r(std::size_t q) const { return {rx[q], ry[q], rz[q]}; }
   SegmentClosest closest(std::size_t q) const {
@@ -142,11 +145,38 @@ void screen_candidates(const Particles &p, double h, double D, double dt, std::s
 #pragma omp simd
   for (std::size_t k = 0; k < count; ++k) {
     const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
-    batch.quick_apart[k] =
+    batch.apart[k] =
         apart_along_gap({ex[i], ey[i], ez[i]}, {vx[i], vy[i], vz[i]}, {wx[i], wy[i], wz[i]},
                         {ex[j], ey[j], ez[j]}, {vx[j], vy[j], vz[j]}, {wx[j], wy[j], wz[j]},
                         batch.r(q), batch.closest(q), h, D, dt, kApartMargin);
   }
+}
+
+// The second screen of apart_in_flight (apart_turning, gap_bound.hpp) for the batch's rod
+// candidates the first did not prove apart (spares aside), in vector lanes: a quarter of the
+// nematic's.
+void refine_candidates(const Particles &p, double h, double D, double dt, std::size_t count,
+                       DueBatch &__restrict batch) {
+  std::size_t left = 0;
+  for (std::size_t k = 0; k < count; ++k) {  // listed without a branch
+    batch.refine[left] = static_cast<std::uint32_t>(k);
+    left += !batch.apart[k] & !batch.beyond[k];
+  }
+  const double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(),
+                           *__restrict ez = p.ez.data();
+  const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
+                           *__restrict vz = p.vz.data();
+  const double *__restrict wx = p.wx.data(), *__restrict wy = p.wy.data(),
+                           *__restrict wz = p.wz.data();
+#pragma omp simd
+  for (std::size_t m = 0; m < left; ++m) {
+    const std::uint32_t q = batch.candidate[batch.refine[m]], i = batch.i[q], j = batch.j[q];
+    batch.refined[m] =
+        apart_turning({ex[i], ey[i], ez[i]}, {vx[i], vy[i], vz[i]}, {wx[i], wy[i], wz[i]},
+                      {ex[j], ey[j], ez[j]}, {vx[j], vy[j], vz[j]}, {wx[j], wy[j], wz[j]},
+                      batch.r(q), batch.closest(q), h, D, dt, kApartMargin);
+  }
+  for (std::size_t m = 0; m < left; ++m) batch.apart[batch.refine[m]] = batch.refined[m];
 }
 
 // apart_in_flight for the batch's sphere candidates [0, count) (spheres_apart), in vector lanes.
@@ -157,35 +187,21 @@ void screen_spheres(const Particles &p, double D, double dt, std::size_t count,
 #pragma omp simd
   for (std::size_t k = 0; k < count; ++k) {
     const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
-    batch.quick_apart[k] = spheres_apart(batch.r(q), {vx[j] - vx[i], vy[j] - vy[i], vz[j] - vz[i]},
-                                         D, dt, kApartMargin);
+    batch.apart[k] = spheres_apart(batch.r(q), {vx[j] - vx[i], vy[j] - vy[i], vz[j] - vz[i]}, D, dt,
+                                   kApartMargin);
   }
 }
 
 // The exact method's candidate k of a batch (StepAhead, contact_detection.hpp), filled with
-// what the clusters read (ids, depth, `apart`, `spare`). Spheres have no axes, spins or
-// closest points.
+// what the clusters read: ids, depth, `spare` (beyond the flights' reach) and `apart` (a spare,
+// or proven by the screens: screen_candidates and refine_candidates for rods, screen_spheres).
 void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &batch, std::size_t k,
-                     const StepAhead &ahead, Candidate &c) {
-  const std::uint32_t q = batch.candidate[k], i = batch.i[q], j = batch.j[q];
-  const double h = shape.half_length();
-  name_bodies(p, i, j, c);
+                     Candidate &c) {
+  const std::uint32_t q = batch.candidate[k];
+  name_bodies(p, batch.i[q], batch.j[q], c);
   c.depth = shape.diameter - batch.distance[q];
-  // measure_due's reach (the sum's order does not change its bits)
-  if (!(batch.distance[q] < shape.diameter + 2.0 * (ahead.grow[i] + ahead.grow[j]))) {
-    c.spare = c.apart = true;
-    return;
-  }
-  if (h == 0.0 || batch.quick_apart[k]) {  // spheres: their whole test (screen_spheres)
-    c.apart = batch.quick_apart[k];
-    return;
-  }
-  // rods whose first screen failed: its refined test
-  const Vec3 xi = p.position(i), rij = batch.r(q);
-  const Flight fi{xi, p.axis(i), p.velocity(i), p.angular_velocity(i), 0.0};
-  const Flight fj{xi + rij, p.axis(j), p.velocity(j), p.angular_velocity(j), 0.0};
-  c.apart =
-      apart_after_screen(fi, fj, rij, batch.closest(q), h, shape.diameter, ahead.dt, kApartMargin);
+  c.spare = batch.beyond[k];
+  c.apart = c.spare || batch.apart[k];
 }
 
 // The due pairs pairs[due[0, n)] measured a batch at a time (due_distances), and each pair's
@@ -193,7 +209,7 @@ void exact_candidate(const Particles &p, const Shape &shape, const DueBatch &bat
 // reach become contacts. With `ahead` (the exact method's Candidates, see
 // contact_detection.hpp) the bounds already hold the step's whole flight while the bodies are
 // still at its start: a candidate is a pair whose gap is below the two flights (plus twice
-// the allowance: spares), screened (screen_candidates, screen_spheres, exact_candidate), and
+// the allowance: spares), screened (screen_candidates and refine_candidates, screen_spheres), and
 // the slack is renewed for the start. Without (the midpoint method's Contacts), a contact is
 // an overlap (rare), measured again by make_contact.
 template <class Found>
@@ -217,14 +233,18 @@ void measure_due(const Particles &p, const Box &box, const Vec3 &inverse, const 
       const double reach = ahead ? 2.0 * (ahead->grow[pair.first] + ahead->grow[pair.second]) : 0.0;
       pair.recheck_at = slack_below((moved - reach) + (d - D) - kDistanceSafetyMargin);
       batch.candidate[candidates] = static_cast<std::uint32_t>(q);
+      batch.beyond[candidates] = !(d < D + reach);
       candidates += d < D + (reach + spare);  // (a NaN is not)
     }
-    if (ahead && h > 0.0) screen_candidates(p, h, D, ahead->dt, candidates, batch);
+    if (ahead && h > 0.0) {
+      screen_candidates(p, h, D, ahead->dt, candidates, batch);
+      refine_candidates(p, h, D, ahead->dt, candidates, batch);
+    }
     if (ahead && h == 0.0) screen_spheres(p, D, ahead->dt, candidates, batch);
     for (std::size_t k = 0; k < candidates; ++k) {
       Found &c = found.emplace_back();
       if constexpr (std::is_same_v<Found, Candidate>) {
-        exact_candidate(p, shape, batch, k, *ahead, c);
+        exact_candidate(p, shape, batch, k, c);
       } else {
         const std::uint32_t q = batch.candidate[k];
         double again = 0.0;

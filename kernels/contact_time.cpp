@@ -278,27 +278,6 @@ SafeStep contact_free_step(const PairState &st, const Flight &a, const Flight &b
   return step;
 }
 
-// Whether the bounds of contact_free_step prove gap + margin > 0 over the whole [0, s_max]:
-// its tests of the fixed and turning normals at s_max, and the plain Lipschitz bound, without
-// the safe steps it takes when they do not (a screen needs only the yes or no).
-bool proven_clear(const PairState &st, const Flight &a, const Flight &b, double h, double margin,
-                  double s_max) {
-  const auto clears = [s_max](const GapBound &bound) {
-    return bound.g0 > 0.0 && std::isfinite(bound.slope(s_max)) && bound.value(s_max) > 0.0;
-  };
-  GapBound fixed = st.fixed;
-  fixed.g0 += margin;
-  if (clears(fixed)) return true;
-  Vec3 omega[2];
-  const int rates = turning_rates(st.n, st.ea, a.w, st.inner_a, st.eb, b.w, st.inner_b, omega);
-  for (int k = 0; k < rates; ++k)
-    if (clears(
-            turning_bound(st.n, omega[k], -st.r, a.v - b.v, st.ea, a.w, st.eb, b.w, h, fixed.g0)))
-      return true;
-  const double lipschitz = norm(a.v - b.v) + h * (norm(a.w) + norm(b.w));  // |d gap / dt|
-  return !((st.gap + margin) / lipschitz < s_max);
-}
-
 ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
                         double t_to, const ContactTimeSettings &settings) {
   const double tol = settings.tolerance;
@@ -379,14 +358,7 @@ bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const Segm
                      double h, double D, double t_to, double margin) {
   if (h <= 0.0) return spheres_apart(r, b.v - a.v, D, t_to, margin);
   return apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin) ||
-         apart_after_screen(a, b, r, c, h, D, t_to, margin);
-}
-
-bool apart_after_screen(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
-                        double h, double D, double t_to, double margin) {
-  const PairState st = pair_state_from(c, r, a.e, b.e, a, b, h, D);
-  if (!finite_state(st) || !(st.gap > margin)) return false;
-  return proven_clear(st, a, b, h, -margin, t_to);
+         apart_turning(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin);
 }
 
 ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,

@@ -93,10 +93,7 @@ inline bool spheres_apart(const Vec3 &r, const Vec3 &u, double D, double t_to, d
   const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
   return norm(r + s * u) - D > margin;
 }
-// Its refined test alone, for rods whose first screen (apart_along_gap, gap_bound.hpp) failed
-// already: the detection runs that screen over a batch in vector lanes (the same bits), and
-// its failures come here. apart_in_flight = apart_along_gap || apart_after_screen.
-bool apart_after_screen(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
-                        double h, double D, double t_to, double margin);
+// For rods, apart_in_flight = apart_along_gap || apart_turning (gap_bound.hpp), the two screens
+// the detection runs over a batch of candidates in vector lanes, with the same bits.
 
 }  // namespace hardrod

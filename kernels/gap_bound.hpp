@@ -1,8 +1,8 @@
 // The lower bound of two rods' surface gap along a fixed direction, as the exact method's
-// search steps on it (contact_time.cpp explains the bound and why it is concave), and its
-// cheapest use: the screen of a candidate along its closest points' own direction
-// (apart_along_gap). Inline, branch free: the detection runs the screen in vector lanes over a
-// batch of candidates, with the same bits as the scalar search.
+// search steps on it (contact_time.cpp explains the bound and why it is concave), and its two
+// screens of a candidate: along its closest points' own direction (apart_along_gap), and along
+// normals that turn with the bodies (apart_turning). Inline, branch free: the detection runs
+// them in vector lanes over a batch of candidates, with the same bits as apart_in_flight.
 #pragma once
 
 #include <cmath>
@@ -67,6 +67,99 @@ inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa, cons
   // & rather than &&, and |x| <= max for isfinite: without branches the batch vectorises.
   return (c.dist2 > 0.25 * D * D) & (quick.g0 > 0.0) & (quick.value(t_to) > 0.0) &
          (std::abs(quick.slope(t_to)) <= std::numeric_limits<double>::max());
+}
+
+// apart_turning's test of one rate omega: turning_bound's bound (contact_time.cpp) from normal n
+// at separation dx = x_a - x_b, relative velocity dv = v_a - v_b (their norms ndx, ndv; nwa, nwb
+// those of the spins), positive over [0, t_to] from g0 on. Inlined always, so that the batch's
+// loop vectorises.
+[[gnu::always_inline]] inline bool turning_clears(const Vec3 &n, const Vec3 &omega, const Vec3 &dx,
+                                                  const Vec3 &dv, double ndx, double ndv,
+                                                  const Vec3 &ea, const Vec3 &wa, double nwa,
+                                                  const Vec3 &eb, const Vec3 &wb, double nwb,
+                                                  double h, double g0, double t_to) {
+  const double om = norm(omega), om2 = om * om;
+  GapBound b;
+  b.g0 = g0;
+  b.h = h;
+  b.closing = dot(n, dv) + dot(cross(omega, n), dx);
+  b.q2 = 0.5 * (om2 * ndx + 2.0 * om * ndv);
+  b.q3 = om2 * ndv / 6.0;
+  b.a.A = dot(n, ea);
+  b.a.C = dot(n, cross(wa - omega, ea));
+  b.a.K2 = 0.5 * norm(wa - omega) * (nwa + om);
+  b.b.A = dot(n, eb);
+  b.b.C = dot(n, cross(wb - omega, eb));
+  b.b.K2 = 0.5 * norm(wb - omega) * (nwb + om);
+  return (b.g0 > 0.0) & (std::abs(b.slope(t_to)) <= std::numeric_limits<double>::max()) &
+         (b.value(t_to) > 0.0);
+}
+
+// The refined screen (apart_in_flight's second test): the same separation along a normal that
+// turns with the bodies (contact_time.cpp explains turning_bound and turning_rates), from the
+// separating normal (separating_normal: the closest points' direction made square to each axis
+// whose closest point is interior), for each of its up to three rates: both axes held square,
+// or the faster-turning one alone where the axes are within ~6 degrees, or the one interior
+// axis. Then the plain Lipschitz bound. The same arithmetic as those functions, without
+// branches (selects), so that the detection runs it over a batch in vector lanes, and the
+// scalar apart_in_flight with the same bits. False when not proven (also for closest points
+// nearer than D / 2, and for non-finite input).
+[[gnu::always_inline]] inline bool apart_turning(const Vec3 &ea, const Vec3 &va, const Vec3 &wa,
+                                                 const Vec3 &eb, const Vec3 &vb, const Vec3 &wb,
+                                                 const Vec3 &r, const SegmentClosest &c, double h,
+                                                 double D, double t_to, double margin) {
+  constexpr double big = std::numeric_limits<double>::max();
+  const auto finite = [](double x) { return std::abs(x) <= big; };
+  const auto select = [](bool p, const Vec3 &x, const Vec3 &y) {
+    return Vec3{p ? x.x : y.x, p ? x.y : y.y, p ? x.z : y.z};
+  };
+  // separating_normal
+  const Vec3 n0 = (1.0 / std::sqrt(c.dist2)) * c.gap;
+  const bool inner_a = std::abs(c.s) < h, inner_b = std::abs(c.t) < h;
+  const Vec3 f = std::copysign(1.0, dot(ea, eb)) * eb;
+  const Vec3 x = cross(ea - f, ea);
+  const double x2 = norm2(x);
+  const Vec3 nx = (1.0 / std::sqrt(x2)) * x;
+  const Vec3 n_both = select(dot(nx, n0) < 0.0, -nx, nx);
+  const Vec3 ma0 = n0 - dot(n0, ea) * ea, mb0 = n0 - dot(n0, eb) * eb;
+  const double ma2 = norm2(ma0), mb2 = norm2(mb0);
+  const Vec3 n_a = select(ma2 > 1e-200, (1.0 / std::sqrt(ma2)) * ma0, n0);
+  const Vec3 n_b = select(mb2 > 1e-200, (1.0 / std::sqrt(mb2)) * mb0, n0);
+  const Vec3 n = select(inner_a & inner_b & (x2 > 1e-28), n_both,
+                        select(inner_a, n_a, select(inner_b, n_b, n0)));
+  // pair_state_from's checks and the fixed bound's g0 (with the margin taken off)
+  const double gap = std::sqrt(c.dist2) - D;
+  const Vec3 ua = va + cross(wa, c.s * ea), ub = vb + cross(wb, c.t * eb);
+  const double rate = dot(n, ua - ub);
+  const double closing = dot(n, va - vb);
+  const double g0 = (-dot(n, r) - h * (std::abs(dot(n, ea)) + std::abs(dot(n, eb))) - D) - margin;
+  const bool usable = (c.dist2 > 0.25 * D * D) & finite(gap) & finite(rate) & finite(g0) &
+                      finite(closing) & (gap > margin);
+  // turning_rates
+  const Vec3 ma = cross(ea, n), mb = cross(eb, n);
+  const double ga = norm2(ma), gb = norm2(mb), gab = dot(ma, mb);
+  const double ra = dot(wa, ma), rb = dot(wb, mb);
+  const bool both = inner_a & inner_b;
+  const double det = ga * gb - gab * gab;
+  const bool with_both = both & (det > 1e-12 * ga * gb);
+  const bool only_both = both & (det > 1e-2 * ga * gb);
+  const bool a_faster = std::abs(ra) >= std::abs(rb);
+  const bool keep_a = inner_a & ((!both) | ((!only_both) & a_faster));
+  const bool keep_b = inner_b & ((!both) | ((!only_both) & (!a_faster)));
+  const Vec3 omega_both = ((gb * ra - gab * rb) / det) * ma + ((ga * rb - gab * ra) / det) * mb;
+  const Vec3 omega_a = (ra / ga) * ma, omega_b = (rb / gb) * mb;
+  // turning_bound for a rate, and whether it clears [0, t_to]
+  const Vec3 dx = -r, dv = va - vb;
+  const double ndx = norm(dx), ndv = norm(dv), nwa = norm(wa), nwb = norm(wb);
+#define HARDROD_CLEARS(omega) \
+  turning_clears(n, omega, dx, dv, ndx, ndv, ea, wa, nwa, eb, wb, nwb, h, g0, t_to)
+  const bool turned = (with_both & HARDROD_CLEARS(omega_both)) |
+                      ((keep_a & (ga > 0.5)) & HARDROD_CLEARS(omega_a)) |
+                      ((keep_b & (gb > 0.5)) & HARDROD_CLEARS(omega_b));
+#undef HARDROD_CLEARS
+  const double lipschitz = ndv + h * (nwa + nwb);  // |d gap / dt|
+  const bool plain = !((gap - margin) / lipschitz < t_to);
+  return usable & (turned | plain);
 }
 
 }  // namespace hardrod
