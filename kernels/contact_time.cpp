@@ -74,40 +74,6 @@ ContactTime sphere_contact(const Flight &a, const Flight &b, double D, double t_
   return out;
 }
 
-// The same separation along a direction that turns, n(s) = n rotated by omega s: still a
-// lower bound of the gap at every s, and with omega chosen so that n(s) stays square to each
-// axis whose closest point is interior (omega . (e x n) = w . (e x n)), its slope at s = 0 is
-// the gap's true rate. (With n fixed, a rod's turning brings its far end towards the other
-// body's plane at h |w|, however far aside that end is: the bound's slope is then several
-// times the true rate and the advancement only linear.) Remainders, with d'' bounds:
-//   n(s).e(s) = n.E(s), E(s) = R(omega s)^T R(w s) e, E'' = R(omega s)^T ((w - omega) x (w x e(s))
-//   - omega x ((w - omega) x e(s))): n(s).e(s) = A + s n.((w - omega) x e) + R with
-//   |R| <= |w - omega| (|w| + |omega|) s^2 / 2,
-//   n(s).(dx + s dv) = n.dx + s (n.dv + (omega x n).dx) + R_x,
-//   |R_x| <= s^2 (|omega|^2 |dx| + 2 |omega| |dv|) / 2 + s^3 |omega|^2 |dv| / 6
-// (dx = x_a - x_b, dv = v_a - v_b).
-GapBound turning_bound(const Vec3 &n, const Vec3 &omega, const Vec3 &dx, const Vec3 &dv,
-                       const Vec3 &ea, const Vec3 &wa, const Vec3 &eb, const Vec3 &wb, double h,
-                       double g0) {
-  const double om = norm(omega), om2 = om * om, ndv = norm(dv);
-  GapBound out;
-  out.g0 = g0;
-  out.h = h;
-  out.closing = dot(n, dv) + dot(cross(omega, n), dx);
-  out.q2 = 0.5 * (om2 * norm(dx) + 2.0 * om * ndv);
-  out.q3 = om2 * ndv / 6.0;
-  auto axis = [&](const Vec3 &e, const Vec3 &w) {
-    AxisBound b;
-    b.A = dot(n, e);
-    b.C = dot(n, cross(w - omega, e));
-    b.K2 = 0.5 * norm(w - omega) * (norm(w) + om);
-    return b;
-  };
-  out.a = axis(ea, wa);
-  out.b = axis(eb, wb);
-  return out;
-}
-
 // Least-norm rates omega with omega . m_k = w_k . m_k (m_k = e_k x n) for the interior bodies:
 // both, a 2x2 Gram system; where the axes are nearly parallel that omega grows as 1 / angle,
 // and its remainders limit the step far from contact (not near it, where the step is short),

@@ -69,34 +69,41 @@ inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa, cons
          (std::abs(quick.slope(t_to)) <= std::numeric_limits<double>::max());
 }
 
-// apart_turning's test of one rate omega: turning_bound's bound (contact_time.cpp) from normal n
-// at separation dx = x_a - x_b, relative velocity dv = v_a - v_b (their norms ndx, ndv; nwa, nwb
-// those of the spins), positive over [0, t_to] from g0 on. Inlined always, so that the batch's
-// loop vectorises.
-[[gnu::always_inline]] inline bool turning_clears(const Vec3 &n, const Vec3 &omega, const Vec3 &dx,
-                                                  const Vec3 &dv, double ndx, double ndv,
-                                                  const Vec3 &ea, const Vec3 &wa, double nwa,
-                                                  const Vec3 &eb, const Vec3 &wb, double nwb,
-                                                  double h, double g0, double t_to) {
-  const double om = norm(omega), om2 = om * om;
-  GapBound b;
-  b.g0 = g0;
-  b.h = h;
-  b.closing = dot(n, dv) + dot(cross(omega, n), dx);
-  b.q2 = 0.5 * (om2 * ndx + 2.0 * om * ndv);
-  b.q3 = om2 * ndv / 6.0;
-  b.a.A = dot(n, ea);
-  b.a.C = dot(n, cross(wa - omega, ea));
-  b.a.K2 = 0.5 * norm(wa - omega) * (nwa + om);
-  b.b.A = dot(n, eb);
-  b.b.C = dot(n, cross(wb - omega, eb));
-  b.b.K2 = 0.5 * norm(wb - omega) * (nwb + om);
-  return (b.g0 > 0.0) & (std::abs(b.slope(t_to)) <= std::numeric_limits<double>::max()) &
-         (b.value(t_to) > 0.0);
+// The same separation along a direction that turns, n(s) = n rotated by omega s: still a
+// lower bound of the gap at every s, and with omega chosen so that n(s) stays square to each
+// axis whose closest point is interior (omega . (e x n) = w . (e x n)), its slope at s = 0 is
+// the gap's true rate. (With n fixed, a rod's turning brings its far end towards the other
+// body's plane at h |w|, however far aside that end is: the bound's slope is then several
+// times the true rate and the advancement only linear.) Remainders, with d'' bounds:
+//   n(s).e(s) = n.E(s), E(s) = R(omega s)^T R(w s) e, E'' = R(omega s)^T ((w - omega) x (w x e(s))
+//   - omega x ((w - omega) x e(s))): n(s).e(s) = A + s n.((w - omega) x e) + R with
+//   |R| <= |w - omega| (|w| + |omega|) s^2 / 2,
+//   n(s).(dx + s dv) = n.dx + s (n.dv + (omega x n).dx) + R_x,
+//   |R_x| <= s^2 (|omega|^2 |dx| + 2 |omega| |dv|) / 2 + s^3 |omega|^2 |dv| / 6
+// (dx = x_a - x_b, dv = v_a - v_b). Inline always: the search (contact_time.cpp) and the
+// detection's screen in vector lanes (apart_turning) build it with the same bits.
+[[gnu::always_inline]] inline GapBound turning_bound(const Vec3 &n, const Vec3 &omega,
+                                                     const Vec3 &dx, const Vec3 &dv, const Vec3 &ea,
+                                                     const Vec3 &wa, const Vec3 &eb, const Vec3 &wb,
+                                                     double h, double g0) {
+  const double om = norm(omega), om2 = om * om, ndv = norm(dv);
+  GapBound out;
+  out.g0 = g0;
+  out.h = h;
+  out.closing = dot(n, dv) + dot(cross(omega, n), dx);
+  out.q2 = 0.5 * (om2 * norm(dx) + 2.0 * om * ndv);
+  out.q3 = om2 * ndv / 6.0;
+  out.a.A = dot(n, ea);
+  out.a.C = dot(n, cross(wa - omega, ea));
+  out.a.K2 = 0.5 * norm(wa - omega) * (norm(wa) + om);
+  out.b.A = dot(n, eb);
+  out.b.C = dot(n, cross(wb - omega, eb));
+  out.b.K2 = 0.5 * norm(wb - omega) * (norm(wb) + om);
+  return out;
 }
 
 // The refined screen (apart_in_flight's second test): the same separation along a normal that
-// turns with the bodies (contact_time.cpp explains turning_bound and turning_rates), from the
+// turns with the bodies (turning_bound above; contact_time.cpp explains turning_rates), from the
 // separating normal (separating_normal: the closest points' direction made square to each axis
 // whose closest point is interior), for each of its up to three rates: both axes held square,
 // or the faster-turning one alone where the axes are within ~6 degrees, or the one interior
@@ -150,14 +157,13 @@ inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa, cons
   const Vec3 omega_a = (ra / ga) * ma, omega_b = (rb / gb) * mb;
   // turning_bound for a rate, and whether it clears [0, t_to]
   const Vec3 dx = -r, dv = va - vb;
-  const double ndx = norm(dx), ndv = norm(dv), nwa = norm(wa), nwb = norm(wb);
-#define HARDROD_CLEARS(omega) \
-  turning_clears(n, omega, dx, dv, ndx, ndv, ea, wa, nwa, eb, wb, nwb, h, g0, t_to)
-  const bool turned = (with_both & HARDROD_CLEARS(omega_both)) |
-                      ((keep_a & (ga > 0.5)) & HARDROD_CLEARS(omega_a)) |
-                      ((keep_b & (gb > 0.5)) & HARDROD_CLEARS(omega_b));
-#undef HARDROD_CLEARS
-  const double lipschitz = ndv + h * (nwa + nwb);  // |d gap / dt|
+  const auto clears = [&](const Vec3 &omega) __attribute__((always_inline)) {
+    const GapBound b = turning_bound(n, omega, dx, dv, ea, wa, eb, wb, h, g0);
+    return (b.g0 > 0.0) & finite(b.slope(t_to)) & (b.value(t_to) > 0.0);
+  };
+  const bool turned = (with_both & clears(omega_both)) | ((keep_a & (ga > 0.5)) & clears(omega_a)) |
+                      ((keep_b & (gb > 0.5)) & clears(omega_b));
+  const double lipschitz = norm(dv) + h * (norm(wa) + norm(wb));  // |d gap / dt|
   const bool plain = !((gap - margin) / lipschitz < t_to);
   return usable & (turned | plain);
 }
