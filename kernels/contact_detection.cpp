@@ -602,7 +602,7 @@ void pass_pairs(const Particles &p, const Box &box, const Vec3 &inverse, const S
 }
 
 // Which pairs a pass reads: the near pairs alone (`at`, while they hold), or every pair,
-// making the near pairs again (`make`) where the list keeps them.
+// making the near pairs again (`make_near`) where the list keeps them.
 struct PassPlan {
   bool use_near = false, make_near = false;
   const std::uint32_t *at = nullptr;
