@@ -734,20 +734,29 @@ ExactStats &ExactStats::operator+=(const ExactStats &o) {
   return *this;
 }
 
-void land_flown(Particles &p, const std::vector<FlownBody> &flown) {
-  // Each write goes to a line of one of thirteen arrays that the step's flight has left in
-  // no cache at N = 32768: the lines of the bodies a few records on are asked for first.
+namespace {
+// An axis component: what a sphere's landing leaves alone.
+constexpr bool axis_field(BodyField field) {
+  return field == &Particles::ex || field == &Particles::ey || field == &Particles::ez;
+}
+}  // namespace
+
+void land_flown(Particles &p, const std::vector<FlownBody> &flown, bool turns) {
+  // Each write goes to a line of one of thirteen arrays (ten for spheres) that the step's
+  // flight has left in no cache at N = 32768: the lines of the bodies a few records on are
+  // asked for first.
   constexpr std::size_t kAhead = 4;
   const std::size_t n = flown.size();
   for (std::size_t k = 0; k < n; ++k) {
     if (k + kAhead < n) {
       const std::uint32_t b = flown[k + kAhead].body;
-      for (BodyField field : kStateFields) __builtin_prefetch(&(p.*field)[b], 1);
+      for (BodyField field : kStateFields)
+        if (turns || !axis_field(field)) __builtin_prefetch(&(p.*field)[b], 1);
       __builtin_prefetch(&p.motion_bound[b], 1);
     }
     const FlownBody &f = flown[k];
     p.set_position(f.body, f.x);
-    p.set_axis(f.body, f.e);
+    if (turns) p.set_axis(f.body, f.e);
     p.set_velocity(f.body, f.v);
     p.set_angular_velocity(f.body, f.w);
     p.motion_bound[f.body] += f.overrun;

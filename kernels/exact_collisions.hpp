@@ -145,7 +145,9 @@ std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const 
                                       std::vector<double> &overrun);
 
 // The flown bodies' end states written over their free flight's, and their motion bounds
-// grown by their overrun (the caller refreshes their motion constants).
-void land_flown(Particles &p, const std::vector<FlownBody> &flown);
+// grown by their overrun (the caller refreshes their motion constants). Without `turns`
+// (spheres) the axis is left as it is: a sphere's flight keeps its axis. (Its spin is
+// written: a collision adds a zero torque to it, which turns a spin component of -0 into +0.)
+void land_flown(Particles &p, const std::vector<FlownBody> &flown, bool turns);
 
 }  // namespace hardrod

@@ -161,8 +161,11 @@ inline void fly_on(Flight &f, double &moved, double t, double h) {
   f.t0 = t;
 }
 
-// Body b's free flight from the step's start.
-inline Flight start_flight(const Particles &p, std::uint32_t b) {
+// Body b's free flight from the step's start. Without `turns` (a sphere), as a prediction
+// reads it: sphere_contact's closed form reads neither axis nor spin, so neither is loaded
+// (both are zero): two of the four scattered loads of a body's state.
+inline Flight start_flight(const Particles &p, std::uint32_t b, bool turns = true) {
+  if (!turns) return {p.position(b), {}, p.velocity(b), {}, 0.0};
   return {p.position(b), p.axis(b), p.velocity(b), p.angular_velocity(b), 0.0};
 }
 

@@ -109,9 +109,10 @@ class StepPass {
     return s;
   }
 
+  // Body b's flight as a prediction reads it (a sphere's without axis and spin, start_flight).
   Flight flight(std::uint32_t b) const {
     const std::uint32_t s = scratch_->label[b];
-    return s == kNone ? start_flight(cx_->p, b) : slots_.flight[s];
+    return s == kNone ? start_flight(cx_->p, b, cx_->shape.half_length() > 0.0) : slots_.flight[s];
   }
 
   // What moves body b to its periodic image nearest a at the step's start, and b's flight there.

@@ -159,7 +159,7 @@ DetectionStats Simulation::exact_collisions(ExactStats &stats) {
 void Simulation::exact_flight() {
   ScopedRegion r(timers_, Region::kIntegrate);
   fly_step(particles_, advanced(), scene_.shape, 0.5 * scene_.dt);
-  land_flown(particles_, flown_);
+  land_flown(particles_, flown_, !scene_.shape.is_sphere());
   changed_.clear();
   for (const FlownBody &f : flown_) changed_.push_back(f.body);
   refresh_motion(particles_, changed_, scene_.shape, 0.5 * scene_.dt);
