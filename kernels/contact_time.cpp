@@ -37,43 +37,6 @@ double versine_series(double a2) {
   return 0.5 + a2 * (-1.0 / 24 + a2 * (1.0 / 720 + a2 * (-1.0 / 40320 + a2 * (1.0 / 3628800))));
 }
 
-// Spheres (h = 0): r(s) = r0 + u s with u = v_b - v_a. They meet where |r(s)| = D + tolerance/2:
-// half a tolerance early, so the returned gap is in (0, tolerance] whatever the round-off of
-// the root (a few eps |r0|). |r(s)|^2 is convex in s: once receding, never meeting again.
-ContactTime sphere_contact(const Flight &a, const Flight &b, double D, double t_from, double t_to,
-                           const ContactTimeSettings &settings) {
-  ContactTime out;
-  out.iterations = 1;
-  const Vec3 r0 = b.position(t_from) - a.position(t_from);
-  const Vec3 u = b.v - a.v;
-  const double dist = norm(r0);
-  const double gap = dist - D;
-  const double approach = dot(r0, u);  // < 0: closing
-  if (!std::isfinite(gap) || !std::isfinite(approach) || !std::isfinite(norm2(u))) {
-    out.converged = false;
-    out.t = t_from;
-    return out;
-  }
-  const double tol = settings.tolerance;
-  if (gap <= -tol || (gap <= tol && approach < 0.0)) {  // overlapping, or touching and closing
-    out.found = true;
-    out.t = t_from;
-    return out;
-  }
-  out.t = t_to;
-  if (approach >= 0.0 || gap <= tol) return out;  // receding, or touching and not closing
-  const double target = D + 0.5 * tol;
-  const double c0 = (dist - target) * (dist + target);  // > 0: gap > tol
-  const double disc = approach * approach - norm2(u) * c0;
-  if (disc < 0.0) return out;                           // closest approach farther than the target
-  const double s = c0 / (-approach + std::sqrt(disc));  // the smaller root, without cancellation
-  if (t_from + s <= t_to) {
-    out.found = true;
-    out.t = t_from + s;
-  }
-  return out;
-}
-
 // Least-norm rates omega with omega . m_k = w_k . m_k (m_k = e_k x n) for the interior bodies:
 // both, a 2x2 Gram system; where the axes are nearly parallel that omega grows as 1 / angle,
 // and its remainders limit the step far from contact (not near it, where the step is short),
@@ -244,6 +207,8 @@ SafeStep contact_free_step(const PairState &st, const Flight &a, const Flight &b
   return step;
 }
 
+}  // namespace
+
 ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
                         double t_to, const ContactTimeSettings &settings) {
   const double tol = settings.tolerance;
@@ -293,10 +258,6 @@ ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, do
   }
 }
 
-}  // namespace
-
-Vec3 Flight::position(double t) const { return x + (t - t0) * v; }
-
 Vec3 Flight::axis(double t) const {
   const double tau = t - t0;
   // At the flight's start the axis itself (a search's first look, and a body just collided):
@@ -325,18 +286,6 @@ bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const Segm
   if (h <= 0.0) return spheres_apart(r, b.v - a.v, D, t_to, margin);
   return apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin) ||
          apart_turning(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin);
-}
-
-ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
-                          double t_to, const ContactTimeSettings &settings) {
-  if (!(t_to >= t_from) || !std::isfinite(t_from) || !std::isfinite(t_to)) {
-    ContactTime out;  // an empty or non-finite interval: nothing searched
-    out.t = t_from;
-    out.converged = std::isfinite(t_from) && std::isfinite(t_to);
-    return out;
-  }
-  if (h <= 0.0) return sphere_contact(a, b, D, t_from, t_to, settings);
-  return rod_contact(a, b, h, D, t_from, t_to, settings);
 }
 
 }  // namespace hardrod

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 
 #include "kernels/segment_geometry.hpp"
 #include "kernels/vec3.hpp"
@@ -20,7 +21,7 @@ namespace hardrod {
 struct Flight {
   Vec3 x, e, v, w;
   double t0 = 0.0;
-  Vec3 position(double t) const;
+  Vec3 position(double t) const { return x + (t - t0) * v; }
   Vec3 axis(double t) const;
 };
 
@@ -36,6 +37,47 @@ struct ContactTime {
   double t = 0.0;         // the contact time (found), or how far the search proved the pair apart
   int iterations = 0;     // gap evaluations (segment distances) used
 };
+
+// Spheres (h = 0): r(s) = r0 + u s with u = v_b - v_a. They meet where |r(s)| = D + tolerance/2:
+// half a tolerance early, so the returned gap is in (0, tolerance] whatever the round-off of
+// the root (a few eps |r0|). |r(s)|^2 is convex in s: once receding, never meeting again.
+inline ContactTime sphere_contact(const Flight &a, const Flight &b, double D, double t_from,
+                                  double t_to, const ContactTimeSettings &settings) {
+  ContactTime out;
+  out.iterations = 1;
+  const Vec3 r0 = b.position(t_from) - a.position(t_from);
+  const Vec3 u = b.v - a.v;
+  const double dist = norm(r0);
+  const double gap = dist - D;
+  const double approach = dot(r0, u);  // < 0: closing
+  if (!std::isfinite(gap) || !std::isfinite(approach) || !std::isfinite(norm2(u))) {
+    out.converged = false;
+    out.t = t_from;
+    return out;
+  }
+  const double tol = settings.tolerance;
+  if (gap <= -tol || (gap <= tol && approach < 0.0)) {  // overlapping, or touching and closing
+    out.found = true;
+    out.t = t_from;
+    return out;
+  }
+  out.t = t_to;
+  if (approach >= 0.0 || gap <= tol) return out;  // receding, or touching and not closing
+  const double target = D + 0.5 * tol;
+  const double c0 = (dist - target) * (dist + target);  // > 0: gap > tol
+  const double disc = approach * approach - norm2(u) * c0;
+  if (disc < 0.0) return out;                           // closest approach farther than the target
+  const double s = c0 / (-approach + std::sqrt(disc));  // the smaller root, without cancellation
+  if (t_from + s <= t_to) {
+    out.found = true;
+    out.t = t_from + s;
+  }
+  return out;
+}
+
+// Rods (h > 0): conservative advancement (contact_time.cpp).
+ContactTime rod_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
+                        double t_to, const ContactTimeSettings &settings);
 
 // The first time t in [t_from, t_to] at which capsules a and b (axis half length h, diameter D;
 // h = 0: spheres) touch: surface gap g(t) = |closest points of the axes| - D <= tolerance while
@@ -72,8 +114,17 @@ struct ContactTime {
 // (never in those tests), or a safe step fell below the resolution of t; non-finite input:
 // converged = false at once, t = t_from. Times are best measured from the step's start (t0,
 // t_from near 0): a step is resolved to an ulp of t, and near the tolerance steps are ~1e-11 tau.
-ContactTime first_contact(const Flight &a, const Flight &b, double h, double D, double t_from,
-                          double t_to, const ContactTimeSettings &settings);
+inline ContactTime first_contact(const Flight &a, const Flight &b, double h, double D,
+                                 double t_from, double t_to, const ContactTimeSettings &settings) {
+  if (!(t_to >= t_from) || !std::isfinite(t_from) || !std::isfinite(t_to)) {
+    ContactTime out;  // an empty or non-finite interval: nothing searched
+    out.t = t_from;
+    out.converged = std::isfinite(t_from) && std::isfinite(t_to);
+    return out;
+  }
+  if (h <= 0.0) return sphere_contact(a, b, D, t_from, t_to, settings);
+  return rod_contact(a, b, h, D, t_from, t_to, settings);
+}
 
 // The exact method's screen of its candidates (contact_detection.hpp, StepAhead): true when
 // the free flights of a and b alone (both from t0 = 0) keep their surfaces more than `margin`
