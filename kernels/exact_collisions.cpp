@@ -210,8 +210,8 @@ class ClusterPass {
   void land(std::vector<FlownBody> &flown) {
     for (std::uint32_t s = 0; s < count_; ++s) {
       if (slots_.version[s] == 0) continue;  // in free flight all step: fly_step moves it
-      flown.push_back(slots_.landed(s, bodies_[s], cx_.dt, cx_.p, cx_.shape.half_length()));
-      cx_.overrun[bodies_[s]] = flown.back().overrun;
+      cx_.overrun[bodies_[s]] =
+          slots_.land(s, bodies_[s], cx_.dt, cx_.p, cx_.shape.half_length(), flown).overrun;
     }
   }
 

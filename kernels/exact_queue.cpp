@@ -218,7 +218,7 @@ class StepPass {
   void land(std::vector<FlownBody> &flown) {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s)
       if (slots_.version[s] != 0)
-        flown.push_back(slots_.landed(s, bodies_[s], cx_->dt, cx_->p, cx_->shape.half_length()));
+        slots_.land(s, bodies_[s], cx_->dt, cx_->p, cx_->shape.half_length(), flown);
   }
 
   const Context *cx_ = nullptr;
