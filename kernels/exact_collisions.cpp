@@ -54,7 +54,8 @@ class ClusterPass {
     stats_ = {};
     queue_.clear();
     slots_.clear();
-    for (std::size_t s = 0; s < count; ++s) slots_.add(cx_.p, bodies[s]);
+    const bool turns = cx_.shape.half_length() > 0.0;  // (spheres: start_flight)
+    for (std::size_t s = 0; s < count; ++s) slots_.add(cx_.p, bodies[s], turns);
     for (std::size_t k = 0; k < ncandidates; ++k)
       if (candidates[k].live) predict(slot(candidates[k].i), slot(candidates[k].j), 0.0, false);
     const long long cap = cx_.settings.events_per_body * static_cast<long long>(count);
@@ -735,14 +736,15 @@ ExactStats &ExactStats::operator+=(const ExactStats &o) {
 }
 
 namespace {
-// An axis component: what a sphere's landing leaves alone.
-constexpr bool axis_field(BodyField field) {
-  return field == &Particles::ex || field == &Particles::ey || field == &Particles::ez;
+// An axis or spin component: what a sphere's landing leaves alone.
+constexpr bool turning_field(BodyField field) {
+  return field == &Particles::ex || field == &Particles::ey || field == &Particles::ez ||
+         field == &Particles::wx || field == &Particles::wy || field == &Particles::wz;
 }
 }  // namespace
 
 void land_flown(Particles &p, const std::vector<FlownBody> &flown, bool turns) {
-  // Each write goes to a line of one of thirteen arrays (ten for spheres) that the step's
+  // Each write goes to a line of one of thirteen arrays (seven for spheres) that the step's
   // flight has left in no cache at N = 32768: the lines of the bodies a few records on are
   // asked for first.
   constexpr std::size_t kAhead = 4;
@@ -751,14 +753,16 @@ void land_flown(Particles &p, const std::vector<FlownBody> &flown, bool turns) {
     if (k + kAhead < n) {
       const std::uint32_t b = flown[k + kAhead].body;
       for (BodyField field : kStateFields)
-        if (turns || !axis_field(field)) __builtin_prefetch(&(p.*field)[b], 1);
+        if (turns || !turning_field(field)) __builtin_prefetch(&(p.*field)[b], 1);
       __builtin_prefetch(&p.motion_bound[b], 1);
     }
     const FlownBody &f = flown[k];
     p.set_position(f.body, f.x);
-    if (turns) p.set_axis(f.body, f.e);
     p.set_velocity(f.body, f.v);
-    p.set_angular_velocity(f.body, f.w);
+    if (turns) {
+      p.set_axis(f.body, f.e);
+      p.set_angular_velocity(f.body, f.w);
+    }
     p.motion_bound[f.body] += f.overrun;
   }
 }

@@ -146,8 +146,8 @@ std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const 
 
 // The flown bodies' end states written over their free flight's, and their motion bounds
 // grown by their overrun (the caller refreshes their motion constants). Without `turns`
-// (spheres) the axis is left as it is: a sphere's flight keeps its axis. (Its spin is
-// written: a collision adds a zero torque to it, which turns a spin component of -0 into +0.)
+// (spheres) axis and spin are left as they are: the exact method never changes them
+// (start_flight, exact_events.hpp), and its flights do not carry them.
 void land_flown(Particles &p, const std::vector<FlownBody> &flown, bool turns);
 
 }  // namespace hardrod

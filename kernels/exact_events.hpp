@@ -161,10 +161,13 @@ inline void fly_on(Flight &f, double &moved, double t, double h) {
   f.t0 = t;
 }
 
-// Body b's free flight from the step's start. Without `turns` (a sphere), as a prediction
-// reads it: sphere_contact's closed form reads neither axis nor spin, so neither is loaded
-// (both are zero): two of the four scattered loads of a body's state.
-inline Flight start_flight(const Particles &p, std::uint32_t b, bool turns = true) {
+// Body b's free flight from the step's start. Without `turns` (a sphere) its axis and spin
+// are not loaded (zero in the flight: two of the four scattered loads of a body's state):
+// nothing reads them. A sphere's flight keeps its axis (fly_on), its contact time is a
+// closed form of centres and velocities (sphere_contact), its impulse has no arm, so no
+// torque (give_impulse: its arms are 0 times a cross product, whatever the axis), and its
+// landing writes neither back (land_flown): its axis and spin stay as they were.
+inline Flight start_flight(const Particles &p, std::uint32_t b, bool turns) {
   if (!turns) return {p.position(b), {}, p.velocity(b), {}, 0.0};
   return {p.position(b), p.axis(b), p.velocity(b), p.angular_velocity(b), 0.0};
 }
@@ -186,9 +189,10 @@ struct Slots {
     collisions.clear();
     virial.clear();
   }
-  // A slot for a body in free flight from the step's start.
-  std::uint32_t add(const Particles &p, std::uint32_t b) {
-    flight.push_back(start_flight(p, b));
+  // A slot for a body in free flight from the step's start (a sphere's without axis and spin:
+  // start_flight without `turns`).
+  std::uint32_t add(const Particles &p, std::uint32_t b, bool turns) {
+    flight.push_back(start_flight(p, b, turns));
     moved.push_back(0.0);
     version.push_back(0);
     collisions.push_back(0);

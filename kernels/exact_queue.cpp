@@ -102,14 +102,14 @@ class StepPass {
   std::uint32_t slot(std::uint32_t b) {
     std::uint32_t &s = scratch_->label[b];
     if (s != kNone) return s;
-    s = slots_.add(cx_->p, b);
+    s = slots_.add(cx_->p, b, cx_->shape.half_length() > 0.0);
     bodies_.push_back(b);
     checked_.push_back(0.0);
     events_.push_back(0);
     return s;
   }
 
-  // Body b's flight as a prediction reads it (a sphere's without axis and spin, start_flight).
+  // Body b's flight (a sphere's without axis and spin: start_flight).
   Flight flight(std::uint32_t b) const {
     const std::uint32_t s = scratch_->label[b];
     return s == kNone ? start_flight(cx_->p, b, cx_->shape.half_length() > 0.0) : slots_.flight[s];
