@@ -128,9 +128,32 @@ struct Touch {
   double gap = 0.0;
 };
 
-inline Touch give_impulse(Flight &fa, Flight &fb, const Vec3 &xb, const Shape &shape) {
+// Spheres: give_impulse's arithmetic without the segments and the arms. A sphere's arms are 0
+// times a cross product and its flights carry no spin (start_flight), so those terms add only
+// zeros: the same bits, but for the sign of a zero where the centres share a coordinate exactly.
+inline Touch give_sphere_impulse(Flight &fa, Flight &fb, const Vec3 &xb, const Shape &shape) {
   const Vec3 r = xb - fa.x;
+  const SegmentClosest sc{0.0, 0.0, -r, norm2(r)};  // segment_closest's, for h = 0
+  const Vec3 normal = contact_normal(sc, r, fa.e, fb.e);
+  const double u = dot(normal, fa.v - fb.v);
+  Touch out;
+  if (!(u < 0.0)) {
+    out.gap = std::sqrt(sc.dist2) - shape.diameter;
+    return out;
+  }
+  const double inv_m = 1.0 / shape.mass;
+  const double j = -2.0 * u / (2.0 * inv_m);
+  fa.v = fa.v + (j * inv_m) * normal;
+  fb.v = fb.v - (j * inv_m) * normal;
+  out.closing = true;
+  out.virial = j * dot(normal, fa.x - xb);
+  return out;
+}
+
+inline Touch give_impulse(Flight &fa, Flight &fb, const Vec3 &xb, const Shape &shape) {
   const double h = shape.half_length();
+  if (h == 0.0) return give_sphere_impulse(fa, fb, xb, shape);
+  const Vec3 r = xb - fa.x;
   const SegmentClosest sc = segment_closest_inline(r, fa.e, h, fb.e, h);
   Contact c;
   contact_geometry(sc, r, fa.e, fb.e, shape, c);

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <numeric>
 #include <random>
+#include <tuple>
 #include <utility>
 
 #include "kernels/contact_detection.hpp"
@@ -116,6 +117,36 @@ TEST(ExactCollisions, ASpheresAxisAndSpinPlayNoPartAndStayAsTheyWere) {
                             &Particles::wy, &Particles::wz})
       EXPECT_TRUE(same(b.*field, turned.*field)) << "one_queue " << one_queue;
   }
+}
+
+// An oblique touch of two spheres (give_impulse, its sphere path): the velocity components
+// along the line of centres are exchanged, the others kept, and the virial is J n . (x_a - x_b)
+// with J the momentum exchanged.
+TEST(ExactEvents, AnObliqueSphereImpulseExchangesTheNormalComponents) {
+  const Shape sphere{.length = 0.0};
+  const Vec3 n = (1.0 / std::sqrt(1.0 + 0.36 + 0.09)) * Vec3{1.0, 0.6, -0.3};  // from a to b
+  Flight a{{1.0, 2.0, 3.0}, {0.0, 0.0, 1.0}, {0.7, -0.2, 0.4}, {}, 0.0};
+  Flight b = a;
+  b.x = a.x + sphere.diameter * n;
+  b.v = {-0.5, 0.3, 0.1};
+  const Vec3 va = a.v, vb = b.v;
+  const exact_events::Touch touch = exact_events::give_impulse(a, b, b.x, sphere);
+  ASSERT_TRUE(touch.closing);
+  const double ua = dot(va, n), ub = dot(vb, n);  // ua > ub: closing
+  for (const auto &[v, before, from, to] :
+       {std::tuple{a.v, va, ua, ub}, std::tuple{b.v, vb, ub, ua}}) {
+    EXPECT_NEAR(dot(v, n), to, 1e-14);
+    const Vec3 tangential = v - dot(v, n) * n, was = before - from * n;
+    EXPECT_NEAR(norm(tangential - was), 0.0, 1e-14);
+  }
+  // J = m (ua - ub), along -n on a; n . (x_a - x_b) = -D.
+  EXPECT_NEAR(touch.virial, sphere.mass * (ua - ub) * sphere.diameter, 1e-14);
+  // Parting, they are left alone, and the gap is reported.
+  Flight c = a, d = b;
+  const exact_events::Touch apart = exact_events::give_impulse(c, d, d.x, sphere);
+  EXPECT_FALSE(apart.closing);
+  EXPECT_EQ(c.v.x, a.v.x);
+  EXPECT_NEAR(apart.gap, 0.0, 1e-14);
 }
 
 TEST(ExactCollisions, ANewtonsCradleChainsThroughBodiesOutsideTheCandidates) {
