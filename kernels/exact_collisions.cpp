@@ -54,7 +54,7 @@ class ClusterPass {
     stats_ = {};
     queue_.clear();
     slots_.clear();
-    const bool turns = cx_.shape.half_length() > 0.0;  // (spheres: start_flight)
+    const bool turns = !cx_.shape.is_sphere();  // (spheres: start_flight)
     for (std::size_t s = 0; s < count; ++s) slots_.add(cx_.p, bodies[s], turns);
     for (std::size_t k = 0; k < ncandidates; ++k)
       if (candidates[k].live) predict(slot(candidates[k].i), slot(candidates[k].j), 0.0, false);

@@ -32,6 +32,7 @@ class StepPass {
     cx_ = &cx;
     scratch_ = &scratch;
     confined_ = confined;
+    turns_ = !cx.shape.is_sphere();
     clear();
     scratch.first_edge.resize(cx.list.active, kNone);
     for (const Candidate &c : candidates) link(c.i, c.j, true);  // id_i < id_j
@@ -102,7 +103,7 @@ class StepPass {
   std::uint32_t slot(std::uint32_t b) {
     std::uint32_t &s = scratch_->label[b];
     if (s != kNone) return s;
-    s = slots_.add(cx_->p, b, cx_->shape.half_length() > 0.0);
+    s = slots_.add(cx_->p, b, turns_);
     bodies_.push_back(b);
     checked_.push_back(0.0);
     events_.push_back(0);
@@ -112,7 +113,7 @@ class StepPass {
   // Body b's flight (a sphere's without axis and spin: start_flight).
   Flight flight(std::uint32_t b) const {
     const std::uint32_t s = scratch_->label[b];
-    return s == kNone ? start_flight(cx_->p, b, cx_->shape.half_length() > 0.0) : slots_.flight[s];
+    return s == kNone ? start_flight(cx_->p, b, turns_) : slots_.flight[s];
   }
 
   // What moves body b to its periodic image nearest a at the step's start, and b's flight there.
@@ -223,6 +224,7 @@ class StepPass {
 
   const Context *cx_ = nullptr;
   bool confined_ = false;            // extra pairs only between bodies of the candidates and joins
+  bool turns_ = true;                // rods; spheres' flights carry no axis or spin (start_flight)
   ExactScratch *scratch_ = nullptr;  // label: a body's slot (kNone: none); first_edge
   Slots slots_;
   std::vector<std::uint32_t> bodies_;  // by slot
