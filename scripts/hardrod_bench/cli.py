@@ -7,7 +7,7 @@ parsed arguments to the module's main. The order of the sub-commands here is the
 
 import argparse
 
-from . import ab, answer, balance, instructions, kernels, paper, scaling, tradeoff, traffic, validate, versus
+from . import ab, answer, balance, edmd, instructions, kernels, paper, scaling, tradeoff, traffic, validate, versus
 
 USAGE = """hardrod benchmark harness: kernels, physics validation, speed/accuracy trade, scaling.
 
@@ -15,6 +15,7 @@ USAGE = """hardrod benchmark harness: kernels, physics validation, speed/accurac
   scripts/bench instructions [--binary A --binary B] [--systems ...] [--cache-sim]   (callgrind)
   scripts/bench versus    [--rounds R] [--configs dt:skin,...]   (issue 20's goal, in turns)
   scripts/bench ab        --base REV | --binary A [--binary B] [--system nematic|spheres]   (side by side)
+  scripts/bench edmd      --source DIR [--rounds R] [--dt DT --skin S]   (hard spheres against event-driven MD)
   scripts/bench validate  [--long | --strict] [--jobs J] [--threads T]
   scripts/bench tradeoff  [--quick | --long] [--methods midpoint,exact] [--jobs J] [--threads T]
   scripts/bench scaling   [--steps S] [--repeat R] [--threads-list 1,2]
@@ -33,7 +34,8 @@ and bench/tradeoff/README.md say how to read the output.
 """
 
 # In the order of --help; paper before answer, as it always was.
-HARNESSES = {"kernels": kernels, "instructions": instructions, "versus": versus, "ab": ab, "validate": validate, "tradeoff": tradeoff, "scaling": scaling,
+HARNESSES = {"kernels": kernels, "instructions": instructions, "versus": versus, "ab": ab, "edmd": edmd,
+             "validate": validate, "tradeoff": tradeoff, "scaling": scaling,
              "traffic": traffic, "balance": balance, "paper": paper, "answer": answer}
 RAW_DESCRIPTION = {"paper"}  # its description is a module docstring with line breaks
 
@@ -44,7 +46,7 @@ def parser():
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="Each sub-command writes results/<subcommand>-<timestamp>/ and prints where; "
                "`scripts/bench <cmd> --help` for its options, `--dry-run` to list its runs.")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{kernels,instructions,versus,ab,validate,tradeoff,scaling,traffic,balance,paper,answer}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="{kernels,instructions,versus,ab,edmd,validate,tradeoff,scaling,traffic,balance,paper,answer}")
     for name, module in HARNESSES.items():
         extra = {"formatter_class": argparse.RawDescriptionHelpFormatter} if name in RAW_DESCRIPTION else {}
         sp = sub.add_parser(name, help=module.HELP, description=module.DESCRIPTION, **extra)
