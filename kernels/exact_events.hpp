@@ -142,7 +142,7 @@ inline Touch give_sphere_impulse(Flight &fa, Flight &fb, const Vec3 &xb, const S
     return out;
   }
   const double inv_m = 1.0 / shape.mass;
-  const double j = -2.0 * u / (2.0 * inv_m);
+  const double j = -2.0 * u / (2.0 * inv_m);  // give_impulse's inverse mass with no arms
   fa.v = fa.v + (j * inv_m) * normal;
   fb.v = fb.v - (j * inv_m) * normal;
   out.closing = true;

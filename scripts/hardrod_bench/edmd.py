@@ -198,8 +198,9 @@ def main(args):
         if bad:
             sys.exit(f"bench edmd: {what}")
     if not args.dry_run:
-        ensure_built(args, [Path(args.binary)])
-        if not Path(args.binary).exists():
+        if Path(args.binary).resolve() == HARDROD:
+            ensure_built(args, [HARDROD])  # the project's own build, made if missing
+        elif not Path(args.binary).exists():
             sys.exit(f"bench edmd: --binary {args.binary}: no such file")
     out = make_outdir(args, "edmd")
     src = prepare(args, out)
