@@ -78,6 +78,11 @@ def analysis():
     check(abs(s["step_over_build"]["median_ratio"] - 1.0) < 1e-12, "ratios of the normalised step too")
     check(s["detect_over_build"]["rounds"] == 0 and s["detect_over_build"]["median_ratio"] is None,
           "a measure no run has is left empty")
+    for r, seconds in zip(rows, [2.0, 1.5, 4.0, 3.6, 2.0, 1.6]):
+        r["neighbor_build_seconds"] = seconds
+    build = {x["measure"]: x for x in ab.analyse(rows)[0]}["neighbor_build_seconds"]
+    check(abs(build["median_ratio"] - 0.8) < 1e-12 and build["b_lower"] == 3,
+          f"the regions' own seconds, B / A within each round (0.75, 0.9, 0.8): {build}")
     check(same, "one checksum: the same trajectory")
     rows[-1]["checksum"] = "c2"
     check(not ab.analyse(rows)[1], "two checksums are told")
