@@ -136,7 +136,7 @@ class ClusterPass {
   template <class F>
   void each_partner_in_cluster(std::uint32_t body, F &&f) const {
     const NeighborList &list = cx_.list;
-    for (std::uint32_t q = list.pairs_start[body]; q < list.pairs_start[body + 1]; ++q) {
+    for (std::uint32_t q = list.pairs_start[body]; q < list.pairs_end[body]; ++q) {
       const std::uint32_t other = list.pair_partner[q];
       if (cx_.group_of[other] == group_) f(other);
     }
@@ -408,7 +408,8 @@ class OverrunCheck {
         out_(out) {}
 
   void run(const std::vector<Overrunner<Label>> &bodies) {
-    const std::uint32_t *start = list_.pairs_start.data(), *partner = list_.pair_partner.data();
+    const std::uint32_t *start = list_.pairs_start.data(), *end = list_.pairs_end.data(),
+                        *partner = list_.pair_partner.data();
     const std::size_t n = bodies.size();
     for (std::size_t k = 0; k < n; ++k) {
       if (k + 16 < n) __builtin_prefetch(&start[bodies[k + 16].body]);
@@ -419,8 +420,7 @@ class OverrunCheck {
       }
       if (k + 4 < n) {
         const std::uint32_t b = bodies[k + 4].body;
-        for (std::uint32_t q = start[b]; q < start[b + 1]; ++q)
-          __builtin_prefetch(&label_[partner[q]]);
+        for (std::uint32_t q = start[b]; q < end[b]; ++q) __builtin_prefetch(&label_[partner[q]]);
       }
       add(bodies[k]);
     }
@@ -437,7 +437,7 @@ class OverrunCheck {
   // The pairs of f with a partner in another cluster, queued; their records and the partners'
   // bounds asked for.
   void add(const Overrunner<Label> &f) {
-    for (std::uint32_t q = list_.pairs_start[f.body]; q < list_.pairs_start[f.body + 1]; ++q) {
+    for (std::uint32_t q = list_.pairs_start[f.body]; q < list_.pairs_end[f.body]; ++q) {
       const std::uint32_t other = list_.pair_partner[q];
       if (label_[other] == f.label) continue;
       const std::uint32_t pair = list_.pair_index[q];

@@ -182,7 +182,7 @@ class StepPass {
     if (!(overrun > checked_[s]) || !(overrun > cx_->settings.overrun_allowance)) return;
     checked_[s] = overrun;
     const NeighborList &list = cx_->list;
-    const std::uint32_t begin = list.pairs_start[body], end = list.pairs_start[body + 1];
+    const std::uint32_t begin = list.pairs_start[body], end = list.pairs_end[body];
     // Every load below is scattered (a miss each at N = 32768): asked for all at once first.
     for (std::uint32_t q = begin; q < end; ++q) {
       const std::uint32_t other = list.pair_partner[q];

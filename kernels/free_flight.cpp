@@ -222,6 +222,29 @@ double two_half_steps(Particles &p, std::size_t count, const Shape &shape, doubl
   return free_flight(p, count, shape, half_dt, 2);
 }
 
+GrownBounds grow_bounds(Particles &p, std::size_t count, const double *extra) {
+  const long n = static_cast<long>(count);
+  double *__restrict bound = p.motion_bound.data();
+  const double *__restrict grow = p.grow.data();
+  double largest = 0.0, used = 0.0, fastest = 0.0, sum = 0.0;
+#pragma omp simd reduction(max : largest, used, fastest) reduction(+ : sum)
+  for (long i = 0; i < n; ++i) {
+    const double b = (bound[i] + grow[i]) + grow[i];  // as drift's two halves add them
+    bound[i] = b;
+    largest = largest > b ? largest : b;
+    const double u = b - extra[i];
+    used = used > u ? used : u;
+    const double step = grow[i] + grow[i];
+    fastest = fastest > step ? fastest : step;
+    sum += b;  // a NaN, which the maximum would drop, stays in the sum
+  }
+  GrownBounds out;
+  out.largest = std::isfinite(sum) ? largest : sum;
+  out.largest_used = used;
+  out.fastest_step = fastest;
+  return out;
+}
+
 double grow_bounds(Particles &p, std::size_t count) {
   const long n = static_cast<long>(count);
   double *__restrict bound = p.motion_bound.data();

@@ -63,6 +63,15 @@ double two_half_steps(Particles &p, std::size_t count, const Shape &shape, doubl
 // steps (positions and axes, the same bits as two_half_steps) leaving the bounds alone.
 // Both read the motion constants as they are (refresh_motion).
 double grow_bounds(Particles &p, std::size_t count);
+// The same, and in the same pass what a list's extension asks (kernels/list_extension.hpp):
+// the largest bound less the body's extra reach (extra: [0, count)) and the largest step's
+// flight (2 grow).
+struct GrownBounds {
+  double largest = 0.0;  // as grow_bounds returns it
+  double largest_used = 0.0;
+  double fastest_step = 0.0;
+};
+GrownBounds grow_bounds(Particles &p, std::size_t count, const double *extra);
 void fly_step(Particles &p, std::size_t count, const Shape &shape, double half_dt);
 
 // Free flight to the midpoint (one or two half steps, as half_step and two_half_steps, with

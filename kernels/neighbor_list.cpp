@@ -65,6 +65,24 @@ void sort_bodies_by_cell(CellList &cells, Particles &p, std::size_t count, std::
   for (std::uint32_t &b : cells.order) b = where[b];
 }
 
+// The centres (and rods' axes) at the build, for extensions (list_extension.hpp): one rank
+// without shadows only.
+void keep_build_state(NeighborList &list, const Particles &p, std::size_t count, std::size_t owned,
+                      const Shape &shape) {
+  auto &b = list.built;
+  const auto end = [count](const std::vector<double> &v) {
+    return v.begin() + static_cast<long>(count);
+  };
+  const bool keep = count == owned;
+  b.x.assign(p.x.begin(), keep ? end(p.x) : p.x.begin());
+  b.y.assign(p.y.begin(), keep ? end(p.y) : p.y.begin());
+  b.z.assign(p.z.begin(), keep ? end(p.z) : p.z.begin());
+  const bool axes = keep && !shape.is_sphere();
+  b.ex.assign(p.ex.begin(), axes ? end(p.ex) : p.ex.begin());
+  b.ey.assign(p.ey.begin(), axes ? end(p.ey) : p.ey.begin());
+  b.ez.assign(p.ez.begin(), axes ? end(p.ez) : p.ez.begin());
+}
+
 // What the search for pairs reads, fixed for one build.
 // Where every axis has the full stencil, a pair within reach has one periodic image, and
 // the cell it was found through says which: candidates are gathered per cell from folded
@@ -611,6 +629,10 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   if (count > owned) keep_first_ring(list, p, count, owned);
   list.watched_steps = 0;
   list.near.valid = list.near.off = false;
+  keep_build_state(list, p, count, owned, shape);
+  list.extra_reach.assign(list.active, 0.0);
+  list.largest_extra = 0.0;
+  list.extended = 0;
   if (list.unarmed_builds > 0) {  // the full pass until the next build: no watches to set
     --list.unarmed_builds;
     index_pairs(list);
@@ -643,6 +665,7 @@ void index_pairs(NeighborList &list) {
     list.pair_partner[at_a] = b;
     list.pair_partner[at_b] = a;
   }
+  list.pairs_end.assign(list.pairs_start.begin() + 1, list.pairs_start.end());
 }
 
 void arm_watches(NeighborList &list) {

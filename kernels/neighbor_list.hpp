@@ -101,10 +101,26 @@ struct NearPairs {
 struct NeighborList {
   double skin = 0.3;
   std::vector<ListedPair> pairs;
-  // The pairs of body i, by index: pair_index[pairs_start[i] .. pairs_start[i + 1]); and
-  // beside each, the pair's other body (pair_partner[a]), so that a walk over a body's
-  // partners reads one run of memory instead of a scattered pair record each.
-  std::vector<std::uint32_t> pairs_start, pair_index, pair_partner;
+  // The pairs of body i, by index: pair_index[pairs_start[i] .. pairs_end[i]); and beside
+  // each, the pair's other body (pair_partner[a]), so that a walk over a body's partners
+  // reads one run of memory instead of a scattered pair record each. After a build
+  // pairs_end[i] is pairs_start[i + 1]; an extension (list_extension.hpp) moves the runs of
+  // the bodies it gives new pairs to the end, so the walks of the exact method read pairs_end.
+  // The watched detection, which an extension turns off, reads pairs_start[i + 1].
+  std::vector<std::uint32_t> pairs_start, pairs_end, pair_index, pair_partner;
+  // Each body's reach beyond half the skin (list_extension.hpp), [0, active), 0 after a
+  // build, and the largest. `extended`: extensions since the build; `extensions`: all (a
+  // statistic). extension_due: the extension's scratch.
+  std::vector<double> extra_reach;
+  double largest_extra = 0.0;
+  long long extended = 0, extensions = 0;
+  std::vector<std::uint32_t> extension_due;
+  std::vector<std::uint8_t> extension_flag;
+  // The bodies' centres (and rods' axes) at the build, which an extension measures: kept
+  // where there are no shadows (one rank), else empty.
+  struct {
+    std::vector<double> x, y, z, ex, ey, ez;
+  } built;
   // Body i's pairs need a look once motion_bound[i] >= watch[i], the smallest allowance of
   // body i over its pairs (+infinity without pairs). [0, active).
   std::vector<double> watch;

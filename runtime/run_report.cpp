@@ -209,6 +209,7 @@ nlohmann::json exact_json(Simulation &sim) {
           {"extra_pairs", t.extra_pairs},
           {"spare_pairs", t.spares},
           {"rebuilt_in_step", r.rebuilt_in_step},
+          {"list_extensions", comm.sum("summary", sim.neighbor_list().extensions)},
           {"collisions_per_step", per_step(t.collisions)},
           {"events_per_step", per_step(t.events)},
           {"repredictions_per_step", per_step(t.repredictions)},

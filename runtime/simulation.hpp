@@ -65,6 +65,10 @@ struct ParallelOptions {
   // body it owns, and takes the others from the results exchange, which then runs on any
   // rank count (it is otherwise needed on more than two ranks only, and rarely).
   bool results_exchange = false;
+  // The exact method's list on one rank is extended body by body before it is built again
+  // (kernels/list_extension.hpp): the same trajectory. False builds it at every expiry (tests,
+  // comparisons).
+  bool extend_lists = true;
 };
 
 // What the load balancer did (runtime/balance.hpp); the same on every rank.
@@ -257,6 +261,7 @@ class Simulation {
   void exact_step();
   double exact_bounds();   // 1: the step's flight in the bounds
   double exact_rebuild();  // 4, then 1 again
+  bool extend_list(double lead);  // 4 without a build, where it pays (one rank)
   void check_flight(double largest, const char *what);
   double agreed_max(double value);
   DetectionStats exact_collisions(ExactStats &stats);  // 2 and 5
@@ -355,9 +360,11 @@ class Simulation {
   Particles spanning_bodies_;
   std::vector<std::vector<char>> spanning_out_;
   bool results_exchange_ = false;  // ParallelOptions::results_exchange
+  bool extend_lists_ = true;       // ParallelOptions::extend_lists
   double busy_mark_ = 0.0;         // compute seconds at the last balance check
   Cuts pending_cuts_;              // new cuts for the next rebuild (empty: none)
   bool force_rebuild_ = false;
+  GrownBounds grown_;  // exact_bounds: what the step's flight made of the bounds
 };
 
 }  // namespace hardrod
