@@ -187,8 +187,13 @@ bool extend_neighbor_list(NeighborList &list, const Particles &p, const Box &box
   const auto count = static_cast<long long>(due.size());
   if (count == 0) return true;
   if (list.extended + count > budget) return false;
+  // A body whose step alone takes half the skin, or whose bound passed twice the skin, is a
+  // runaway, not the tail: the build takes it (and refuses such a step by name).
+  const double *grow = p.grow.data();
   for (const std::uint32_t b : due)
-    if (!std::isfinite(bound[b] + lead) || list.cells.order[b] != b) return false;
+    if (!(grow[b] + grow[b] < half) || !(bound[b] + lead < 2.0 * list.skin) ||
+        list.cells.order[b] != b)
+      return false;
   for (const std::uint32_t b : due) {
     double &e = list.extra_reach[b];
     while (!(bound[b] + lead < half + e)) e += half;

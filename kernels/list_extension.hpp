@@ -47,8 +47,10 @@ inline double extra_reach(const NeighborList &list, std::uint32_t b) {
 // it (by whole halves of the skin, past its bound and the lead), listing the pairs the new
 // reaches need. The lead keeps a body that speeds up within the step from outrunning its
 // reach there (which would have the step solved again). Returns false, changing nothing,
-// where a build is due instead: the list has shadows (several ranks), or more than `budget`
-// extensions since its build would be needed.
+// where a build is due instead: the list has shadows (several ranks), more than `budget`
+// extensions since its build would be needed, or a body due is a runaway (its step, 2 grow,
+// takes half the skin, or its bound and lead reach twice the skin), which the build's checks
+// take.
 bool extend_neighbor_list(NeighborList &list, const Particles &p, const Box &box,
                           const Shape &shape, double lead, long long budget);
 

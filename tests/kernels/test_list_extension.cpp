@@ -3,8 +3,8 @@
 // extended, every pair the list does not hold was, at the build, at least D + reach_a +
 // reach_b apart, so that none can touch while each bound stays below its reach; each pair is
 // listed once, the new ones due at once; the by-body index names every pair at both of its
-// bodies. Spheres and rods; an extension that would pass its budget, or a list with shadows,
-// changes nothing.
+// bodies. Spheres and rods; an extension that would pass its budget, of a runaway body, or of
+// a list with shadows changes nothing.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -63,7 +63,7 @@ void move(Fluid &s, std::uint64_t seed) {
     const double size = (u(rng) < 0.125 ? 2.5 : 0.9) * half * u(rng);
     Vec3 dx{g(rng), g(rng), g(rng)};
     dx = (size / norm(dx)) * dx;
-    Vec3 e = s.p.axis(i) + Vec3{0.05 * g(rng), 0.05 * g(rng), 0.05 * g(rng)};
+    Vec3 e = s.p.axis(i) + Vec3{0.02 * g(rng), 0.02 * g(rng), 0.02 * g(rng)};
     e = (1.0 / norm(e)) * e;
     const double moved = norm(dx) + h * norm(e - s.p.axis(i));
     s.p.set_position(i, s.p.position(i) + dx);
@@ -157,7 +157,7 @@ TEST_P(ListExtension, NoPairLeftOutCanTouchWhileEachBoundIsBelowItsReach) {
 
   // A second round: the same bodies moved on, extended again from their new reaches.
   const std::size_t before = s.list.pair_count();
-  for (std::size_t i = 0; i < n; ++i) s.p.motion_bound[i] += 0.6 * half;
+  for (std::size_t i = 0; i < n; ++i) s.p.motion_bound[i] += 0.5 * half;
   ASSERT_TRUE(extend_neighbor_list(s.list, s.p, s.box, s.shape, 0.0, 1 << 30));
   EXPECT_GT(s.list.pair_count(), before);
   for (std::size_t i = 0; i < n; ++i) EXPECT_LT(s.p.motion_bound[i], reach(i));
@@ -183,6 +183,14 @@ TEST(ListExtensionLimits, PastItsBudgetOrWithShadowsNothingChanges) {
   EXPECT_EQ(t.list.extended, 0);
   EXPECT_TRUE(extend_neighbor_list(t.list, t.p, t.box, t.shape, 0.5 * t.list.skin, 1 << 30));
   EXPECT_EQ(t.list.extended, static_cast<long long>(t.p.size()));
+
+  // A runaway (a bound past twice the skin) or a NaN is left to the build.
+  Fluid v = built(0.0, 8);
+  v.p.motion_bound[5] = 2.0 * v.list.skin;
+  EXPECT_FALSE(extend_neighbor_list(v.list, v.p, v.box, v.shape, 0.0, 1 << 30));
+  v.p.motion_bound[5] = std::nan("");
+  EXPECT_FALSE(extend_neighbor_list(v.list, v.p, v.box, v.shape, 0.0, 1 << 30));
+  EXPECT_EQ(v.list.extended, 0);
 
   // Shadows (several ranks): bodies [owned, count) are other ranks' copies.
   Fluid u = built(0.0, 6);
