@@ -3,7 +3,9 @@
 // segment distance it had. Each body carries a motion bound (how far any point of it has
 // moved since the build); the distance of a pair can shrink by at most the sum of the two
 // bounds, so a pair needs the narrow phase only when that sum reaches its recorded slack.
-// Pairs not listed cannot touch while the two largest bounds sum to less than the skin.
+// Pairs not listed cannot touch while the two largest bounds sum to less than the skin (or,
+// once extended body by body on one rank, while each bound is below its body's reach:
+// list_extension.hpp).
 // The set of contacts found is therefore exactly the brute-force set, whatever the skin.
 //
 // Watches: so that a step need not read every pair, each pair's slack is split into two
