@@ -222,7 +222,11 @@ double two_half_steps(Particles &p, std::size_t count, const Shape &shape, doubl
   return free_flight(p, count, shape, half_dt, 2);
 }
 
-GrownBounds grow_bounds(Particles &p, std::size_t count, const double *extra) {
+namespace {
+
+// grow_bounds' pass; with Extra also the largest bound less extra[i], else that is the largest.
+template <bool Extra>
+GrownBounds grow_bounds_pass(Particles &p, std::size_t count, const double *__restrict extra) {
   const long n = static_cast<long>(count);
   double *__restrict bound = p.motion_bound.data();
   const double *__restrict grow = p.grow.data();
@@ -232,32 +236,30 @@ GrownBounds grow_bounds(Particles &p, std::size_t count, const double *extra) {
     const double b = (bound[i] + grow[i]) + grow[i];  // as drift's two halves add them
     bound[i] = b;
     largest = largest > b ? largest : b;
-    const double u = b - extra[i];
-    used = used > u ? used : u;
+    if constexpr (Extra) {
+      const double u = b - extra[i];
+      used = used > u ? used : u;
+    }
     const double step = grow[i] + grow[i];
     fastest = fastest > step ? fastest : step;
     sum += b;  // a NaN, which the maximum would drop, stays in the sum
   }
   GrownBounds out;
   out.largest = std::isfinite(sum) ? largest : sum;
-  out.largest_used = used;
+  out.largest_used = Extra ? used : largest;
   out.fastest_step = fastest;
   return out;
 }
 
+}  // namespace
+
+GrownBounds grow_bounds(Particles &p, std::size_t count, const double *extra) {
+  return extra ? grow_bounds_pass<true>(p, count, extra)
+               : grow_bounds_pass<false>(p, count, nullptr);
+}
+
 double grow_bounds(Particles &p, std::size_t count) {
-  const long n = static_cast<long>(count);
-  double *__restrict bound = p.motion_bound.data();
-  const double *__restrict grow = p.grow.data();
-  double largest = 0.0, sum = 0.0;
-#pragma omp simd reduction(max : largest) reduction(+ : sum)
-  for (long i = 0; i < n; ++i) {
-    const double b = (bound[i] + grow[i]) + grow[i];  // as drift's two halves add them
-    bound[i] = b;
-    largest = largest > b ? largest : b;
-    sum += b;  // a NaN, which the maximum would drop, stays in the sum
-  }
-  return std::isfinite(sum) ? largest : sum;
+  return grow_bounds_pass<false>(p, count, nullptr).largest;
 }
 
 void fly_step(Particles &p, std::size_t count, const Shape &shape, double half_dt) {

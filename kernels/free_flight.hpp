@@ -64,8 +64,8 @@ double two_half_steps(Particles &p, std::size_t count, const Shape &shape, doubl
 // Both read the motion constants as they are (refresh_motion).
 double grow_bounds(Particles &p, std::size_t count);
 // The same, and in the same pass what a list's extension asks (kernels/list_extension.hpp):
-// the largest bound less the body's extra reach (extra: [0, count)) and the largest step's
-// flight (2 grow).
+// the largest bound less the body's extra reach (extra: [0, count); null where none has any:
+// then the largest bound, and one array less to read) and the largest step's flight (2 grow).
 struct GrownBounds {
   double largest = 0.0;  // as grow_bounds returns it
   double largest_used = 0.0;

@@ -101,14 +101,10 @@ void Simulation::exact_step() {
 double Simulation::exact_bounds() {
   ScopedRegion r(timers_, Region::kIntegrate);
   const std::size_t n = advanced();
-  double largest = 0.0;
-  if (list_.extra_reach.size() >= n) {
-    grown_ = grow_bounds(particles_, n, list_.extra_reach.data());
-    largest = grown_.largest;
-  } else {  // no reaches of its own: every body's is half the skin
-    largest = grow_bounds(particles_, n);
-    grown_ = {largest, largest, 0.0};
-  }
+  // Extra reaches only once a body was extended since the build (list_extension.hpp).
+  const bool extra = list_.extended > 0 && list_.extra_reach.size() >= n;
+  grown_ = grow_bounds(particles_, n, extra ? list_.extra_reach.data() : nullptr);
+  const double largest = grown_.largest;
   return std::isfinite(largest) ? largest : std::numeric_limits<double>::infinity();
 }
 
