@@ -65,15 +65,15 @@ void sort_bodies_by_cell(CellList &cells, Particles &p, std::size_t count, std::
   for (std::uint32_t &b : cells.order) b = where[b];
 }
 
-// The centres (and rods' axes) at the build, for extensions (list_extension.hpp): one rank
-// without shadows only.
+// The centres (and rods' axes) at the build, for extensions (list_extension.hpp): where the
+// list keeps them, one rank without shadows only.
 void keep_build_state(NeighborList &list, const Particles &p, std::size_t count, std::size_t owned,
                       const Shape &shape) {
   auto &b = list.built;
   const auto end = [count](const std::vector<double> &v) {
     return v.begin() + static_cast<long>(count);
   };
-  const bool keep = count == owned;
+  const bool keep = list.keep_build_state && count == owned;
   b.x.assign(p.x.begin(), keep ? end(p.x) : p.x.begin());
   b.y.assign(p.y.begin(), keep ? end(p.y) : p.y.begin());
   b.z.assign(p.z.begin(), keep ? end(p.z) : p.z.begin());

@@ -119,7 +119,9 @@ struct NeighborList {
   std::vector<std::uint32_t> extension_due;
   std::vector<std::uint8_t> extension_flag;
   // The bodies' centres (and rods' axes) at the build, which an extension measures: kept
-  // where there are no shadows (one rank), else empty.
+  // where asked (keep_build_state: the exact method's lists) and there are no shadows (one
+  // rank), else empty.
+  bool keep_build_state = false;
   struct {
     std::vector<double> x, y, z, ex, ey, ez;
   } built;

@@ -111,7 +111,8 @@ void Simulation::configure(Particles all, ParallelOptions parallel) {
   solver_.max_iterations = static_cast<int>(scene_.solver_max_iterations);
   balance_ = parallel.balance;
   results_exchange_ = parallel.results_exchange;
-  extend_lists_ = parallel.extend_lists;
+  extend_lists_ = parallel.extend_lists && scene_.method == kExact;
+  list_.keep_build_state = extend_lists_;  // what an extension measures (one rank only)
   if (balance_.interval < 1)
     throw SceneError(
         {fmt::format("--balance-interval must be at least 1, got {}", balance_.interval)});

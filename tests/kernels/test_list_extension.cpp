@@ -48,6 +48,7 @@ Fluid built(double length, std::uint64_t seed) {
     s.p.set_axis(i, (1.0 / norm(e)) * e);
   }
   s.list.skin = 0.5;
+  s.list.keep_build_state = true;
   build_neighbor_list(s.list, s.p, n, s.box, s.shape);
   return s;
 }
@@ -191,6 +192,14 @@ TEST(ListExtensionLimits, PastItsBudgetOrWithShadowsNothingChanges) {
   v.p.motion_bound[5] = std::nan("");
   EXPECT_FALSE(extend_neighbor_list(v.list, v.p, v.box, v.shape, 0.0, 1 << 30));
   EXPECT_EQ(v.list.extended, 0);
+
+  // A list that does not keep the build's state (the midpoint method's) is not extended.
+  Fluid w = built(0.0, 9);
+  w.list.keep_build_state = false;
+  build_neighbor_list(w.list, w.p, w.p.size(), w.box, w.shape);
+  move(w, 10);
+  EXPECT_TRUE(w.list.built.x.empty());
+  EXPECT_FALSE(extend_neighbor_list(w.list, w.p, w.box, w.shape, 0.0, 1 << 30));
 
   // Shadows (several ranks): bodies [owned, count) are other ranks' copies.
   Fluid u = built(0.0, 6);
