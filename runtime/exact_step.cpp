@@ -2,7 +2,9 @@
 // simulation.hpp with the collisions at their exact times inside the step instead of at its
 // midpoint. The bodies stay at the step's start until the collisions are known:
 //   1. the motion bounds grow by the step's free flight (grow_bounds), before anything moves
-//   3. agree: the list expires when those bounds reach the skin (then 4. rebuild)
+//   3. agree: the list expires when those bounds reach the skin (then 4. rebuild); on one
+//      rank body by body, each body's reach extended before the list is built again
+//      (kernels/list_extension.hpp)
 //   2. detect: the listed pairs that could touch within the step (detect_contacts, `ahead`)
 //   5. collide: each cluster of them event by event (kernels/exact_collisions.hpp)
 //   6. flight: every body by dt (fly_step), the bodies whose velocity changed to their own end

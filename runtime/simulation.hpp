@@ -259,8 +259,8 @@ class Simulation {
   // The exact method's step (runtime/exact_step.cpp): 1-6 with the collisions at their times.
   void advance_exact(long long count);
   void exact_step();
-  double exact_bounds();   // 1: the step's flight in the bounds
-  double exact_rebuild();  // 4, then 1 again
+  double exact_bounds();          // 1: the step's flight in the bounds
+  double exact_rebuild();         // 4, then 1 again
   bool extend_list(double lead);  // 4 without a build, where it pays (one rank)
   void check_flight(double largest, const char *what);
   double agreed_max(double value);
