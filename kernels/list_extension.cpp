@@ -22,7 +22,8 @@ int window_coordinate(const CellList &cl, int axis, int g) {
 
 // An extension's storage, kept from call to call (a call extends a few bodies).
 struct ExtensionScratch {
-  std::vector<std::uint32_t> mark, found, ends, nearby;
+  std::vector<std::uint32_t> due, mark, found, ends, nearby;
+  std::vector<std::uint8_t> flag;
   std::array<std::vector<int>, 3> along;
   std::uint32_t tag = 0;
 };
@@ -152,17 +153,18 @@ class Extension {
   std::uint32_t &tag_;
 };
 
-// The bodies of [0, n) within `lead` of their reach, into list.extension_due: flagged in vector
+// The bodies of [0, n) within `lead` of their reach, into `due`: flagged in vector
 // lanes, then listed eight flags at a time past the clear ones (a few in thousands are due).
-void list_due(NeighborList &list, const double *bound, std::size_t n, double lead) {
+void list_due(const NeighborList &list, const double *bound, std::size_t n, double lead,
+              ExtensionScratch &scratch) {
   const double half = 0.5 * list.skin, *extra = list.extra_reach.data();
-  std::vector<std::uint8_t> &flag = list.extension_flag;
+  std::vector<std::uint8_t> &flag = scratch.flag;
   flag.resize(n + 8);
   std::fill(flag.begin() + static_cast<long>(n), flag.end(), 0);
   std::uint8_t *__restrict f = flag.data();
 #pragma omp simd
   for (std::size_t b = 0; b < n; ++b) f[b] = !(bound[b] + lead < half + extra[b]);
-  std::vector<std::uint32_t> &due = list.extension_due;
+  std::vector<std::uint32_t> &due = scratch.due;
   due.clear();
   for (std::size_t b = 0; b < n; b += 8) {
     std::uint64_t word = 0;
@@ -182,8 +184,9 @@ bool extend_neighbor_list(NeighborList &list, const Particles &p, const Box &box
       list.extra_reach.size() != n || list.built.x.size() != n)
     return false;
   const double half = 0.5 * list.skin, *bound = p.motion_bound.data();
-  list_due(list, bound, n, lead);
-  const std::vector<std::uint32_t> &due = list.extension_due;
+  thread_local ExtensionScratch scratch;
+  list_due(list, bound, n, lead, scratch);
+  const std::vector<std::uint32_t> &due = scratch.due;
   const auto count = static_cast<long long>(due.size());
   if (count == 0) return true;
   if (list.extended + count > budget) return false;
@@ -199,7 +202,6 @@ bool extend_neighbor_list(NeighborList &list, const Particles &p, const Box &box
     while (!(bound[b] + lead < half + e)) e += half;
     list.largest_extra = std::max(list.largest_extra, e);
   }
-  thread_local ExtensionScratch scratch;
   Extension extension(list, box, shape, scratch);
   const auto listed = static_cast<std::uint32_t>(list.pair_count());
   for (const std::uint32_t b : due)

@@ -65,22 +65,20 @@ void sort_bodies_by_cell(CellList &cells, Particles &p, std::size_t count, std::
   for (std::uint32_t &b : cells.order) b = where[b];
 }
 
-// The centres (and rods' axes) at the build, for extensions (list_extension.hpp): where the
-// list keeps them, one rank without shadows only.
+// The centres (and rods' axes) at the build and zero extra reaches, for extensions
+// (list_extension.hpp): where the list keeps them, one rank without shadows only; else empty.
 void keep_build_state(NeighborList &list, const Particles &p, std::size_t count, std::size_t owned,
                       const Shape &shape) {
-  auto &b = list.built;
-  const auto end = [count](const std::vector<double> &v) {
-    return v.begin() + static_cast<long>(count);
+  const bool keep = list.keep_build_state && count == owned, axes = keep && !shape.is_sphere();
+  const auto copy = [count](std::vector<double> &to, const std::vector<double> &from, bool kept) {
+    to.assign(from.begin(), from.begin() + static_cast<long>(kept ? count : 0));
   };
-  const bool keep = list.keep_build_state && count == owned;
-  b.x.assign(p.x.begin(), keep ? end(p.x) : p.x.begin());
-  b.y.assign(p.y.begin(), keep ? end(p.y) : p.y.begin());
-  b.z.assign(p.z.begin(), keep ? end(p.z) : p.z.begin());
-  const bool axes = keep && !shape.is_sphere();
-  b.ex.assign(p.ex.begin(), axes ? end(p.ex) : p.ex.begin());
-  b.ey.assign(p.ey.begin(), axes ? end(p.ey) : p.ey.begin());
-  b.ez.assign(p.ez.begin(), axes ? end(p.ez) : p.ez.begin());
+  auto &b = list.built;
+  copy(b.x, p.x, keep), copy(b.y, p.y, keep), copy(b.z, p.z, keep);
+  copy(b.ex, p.ex, axes), copy(b.ey, p.ey, axes), copy(b.ez, p.ez, axes);
+  list.extra_reach.assign(keep ? list.active : 0, 0.0);
+  list.largest_extra = 0.0;
+  list.extended = 0;
 }
 
 // What the search for pairs reads, fixed for one build.
@@ -630,9 +628,6 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   list.watched_steps = 0;
   list.near.valid = list.near.off = false;
   keep_build_state(list, p, count, owned, shape);
-  list.extra_reach.assign(list.active, 0.0);
-  list.largest_extra = 0.0;
-  list.extended = 0;
   if (list.unarmed_builds > 0) {  // the full pass until the next build: no watches to set
     --list.unarmed_builds;
     index_pairs(list);

@@ -111,13 +111,11 @@ struct NeighborList {
   // The watched detection, which an extension turns off, reads pairs_start[i + 1].
   std::vector<std::uint32_t> pairs_start, pairs_end, pair_index, pair_partner;
   // Each body's reach beyond half the skin (list_extension.hpp), [0, active), 0 after a
-  // build, and the largest. `extended`: extensions since the build; `extensions`: all (a
-  // statistic). extension_due: the extension's scratch.
+  // build (empty where the list keeps no build state), and the largest. `extended`:
+  // extensions since the build; `extensions`: all (a statistic).
   std::vector<double> extra_reach;
   double largest_extra = 0.0;
   long long extended = 0, extensions = 0;
-  std::vector<std::uint32_t> extension_due;
-  std::vector<std::uint8_t> extension_flag;
   // The bodies' centres (and rods' axes) at the build, which an extension measures: kept
   // where asked (keep_build_state: the exact method's lists) and there are no shadows (one
   // rank), else empty.
