@@ -12,6 +12,7 @@
 
 #include "kernels/contact_time.hpp"
 #include "kernels/gap_bound.hpp"
+#include "kernels/lanes.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
@@ -80,11 +81,15 @@ struct DueBatch {
   double dist2[kDueBatch], distance[kDueBatch];
   // The candidates among them (within reach), which of those the screens proved apart
   // (screen_candidates, refine_candidates), and the rods the first screen left for the second.
-  // `beyond`: past the two flights' reach, within the allowance only (spares).
+  // `beyond`: past the two flights' reach, within the allowance only (spares). The screens'
+  // results are as wide as a double: the vector width of a loop is set by its narrowest type,
+  // and bytes made it 64 candidates (GCC 12, AVX-512), more than a batch's screens hold, so
+  // they ran in the scalar remainder.
   std::uint32_t candidate[kDueBatch];
-  std::uint8_t apart[kDueBatch], beyond[kDueBatch];
+  std::uint64_t apart[kDueBatch];
+  std::uint8_t beyond[kDueBatch];
   std::uint32_t refine[kDueBatch];
-  std::uint8_t refined[kDueBatch];
+  std::uint64_t refined[kDueBatch];
 
   Vec3 r(std::size_t q) const { return {rx[q], ry[q], rz[q]}; }
   SegmentClosest closest(std::size_t q) const {
@@ -132,10 +137,14 @@ void due_distances(const Particles &p, const Box &box, const Vec3 &inverse, doub
   }
 }
 
+static_assert(kDueBatch % kIndexLanes == 0, "a padded batch stays within its arrays");
+
 // The first screen of apart_in_flight (apart_along_gap, gap_bound.hpp) for the batch's rod
-// candidates [0, count), in vector lanes: most candidates are proven apart here.
+// candidates [0, count), in vector lanes (padded: lanes.hpp): most candidates are proven apart
+// here.
 void screen_candidates(const Particles &p, double h, double D, double dt, std::size_t count,
                        DueBatch &__restrict batch) {
+  count = pad_to_lanes(batch.candidate, count);
   const double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(),
                            *__restrict ez = p.ez.data();
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
@@ -162,6 +171,7 @@ void refine_candidates(const Particles &p, double h, double D, double dt, std::s
     batch.refine[left] = static_cast<std::uint32_t>(k);
     left += !batch.apart[k] & !batch.beyond[k];
   }
+  const std::size_t padded = pad_to_lanes(batch.refine, left);
   const double *__restrict ex = p.ex.data(), *__restrict ey = p.ey.data(),
                            *__restrict ez = p.ez.data();
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
@@ -169,7 +179,7 @@ void refine_candidates(const Particles &p, double h, double D, double dt, std::s
   const double *__restrict wx = p.wx.data(), *__restrict wy = p.wy.data(),
                            *__restrict wz = p.wz.data();
 #pragma omp simd
-  for (std::size_t m = 0; m < left; ++m) {
+  for (std::size_t m = 0; m < padded; ++m) {
     const std::uint32_t q = batch.candidate[batch.refine[m]], i = batch.i[q], j = batch.j[q];
     batch.refined[m] =
         apart_turning({ex[i], ey[i], ez[i]}, {vx[i], vy[i], vz[i]}, {wx[i], wy[i], wz[i]},
@@ -182,6 +192,7 @@ void refine_candidates(const Particles &p, double h, double D, double dt, std::s
 // apart_in_flight for the batch's sphere candidates [0, count) (spheres_apart), in vector lanes.
 void screen_spheres(const Particles &p, double D, double dt, std::size_t count,
                     DueBatch &__restrict batch) {
+  count = pad_to_lanes(batch.candidate, count);
   const double *__restrict vx = p.vx.data(), *__restrict vy = p.vy.data(),
                            *__restrict vz = p.vz.data();
 #pragma omp simd
