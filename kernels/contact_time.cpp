@@ -134,16 +134,16 @@ struct PairState {
   bool inner_a = false, inner_b = false;
   // The closest material points: their separation (a's minus b's), its rate, and how far
   // their turning can bend it (upper_gap).
-  Vec3 apart, apart_rate;
+  Vec3 separation, separation_rate;
   double bend = 0.0;
 };
 
 // An upper bound of the gap at t + s: the distance of the two material points closest at t
 // bounds the segments' distance from above. A point at arm c on an axis turning at w moves as
 // x + v s + c e(s), and |e(s) - e - s w x e| <= |w|^2 s^2 / 2, so the points' separation is
-// apart + s apart_rate within bend s^2, bend = (|c_a| |w_a|^2 + |c_b| |w_b|^2) / 2.
+// separation + s separation_rate within bend s^2, bend = (|c_a| |w_a|^2 + |c_b| |w_b|^2) / 2.
 double upper_gap(const PairState &st, double D, double s) {
-  return norm(st.apart + s * st.apart_rate) + st.bend * s * s - D;
+  return norm(st.separation + s * st.separation_rate) + st.bend * s * s - D;
 }
 
 // From the closest points c of axes ea, eb at separation r = x_b - x_a, the bodies' rates
@@ -162,8 +162,8 @@ PairState pair_state_from(const SegmentClosest &c, const Vec3 &r, const Vec3 &ea
   // distance to first order (they minimise it).
   const Vec3 ua = a.v + cross(a.w, c.s * st.ea), ub = b.v + cross(b.w, c.t * st.eb);
   st.rate = dot(st.n, ua - ub);
-  st.apart = c.gap;
-  st.apart_rate = ua - ub;
+  st.separation = c.gap;
+  st.separation_rate = ua - ub;
   st.bend = 0.5 * (std::abs(c.s) * norm2(a.w) + std::abs(c.t) * norm2(b.w));
   GapBound &fixed = st.fixed;
   fixed.a = axis_bound(st.n, st.ea, a.w);

@@ -4,7 +4,7 @@
 // that screen a batch's candidates (contact_detection.cpp) run a few dozen iterations, so most
 // of their time went to that remainder (perf: 94 % of refine_candidates' samples in scalar
 // code). Padded, every iteration runs in vector lanes. (The list build's exact tests of a
-// body's ~10 kept candidates, padded so, were no faster.)
+// body's ~14 kept candidates, padded so, were no faster.)
 #pragma once
 
 #include <cstddef>
