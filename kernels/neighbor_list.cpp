@@ -103,17 +103,38 @@ struct PairSearch {
   double reach;          // segment distance kept in the list
   double centre_reach2;  // centres further apart than (L + reach) cannot be within reach
   double prefilter_reach2;
-  // The preselection keeps a little more than the reach: rounding of the folded and the
-  // minimum-image differences differ in the last bits.
-  double gather_reach2, loose_reach2;
-  // Rods with unique_images: their folded centres and axes in cell order (entry b is body
-  // order[b]), so that a run of cells is a run of entries, and its candidates are copied in
-  // vector lanes without an index per value. The storage is kept from build to build.
+  // The rods' preselection (preselect_rods) runs in single precision, on centres taken
+  // relative to the searched cell's first body, and keeps a margin more than the reach:
+  // `loose` for the segments, `gather` for the centres (reach_margin).
+  float gather_reach2, loose_reach2, h_single;
+  // Rods with unique_images: their folded centres (and axes, in single precision: only the
+  // preselection reads them) in cell order (entry b is body order[b]), so that a run of cells
+  // is a run of entries, and its candidates are copied in vector lanes without an index per
+  // value. The storage is kept from build to build.
   struct CellOrdered {
-    std::vector<double> x, y, z, ex, ey, ez;
+    std::vector<double> x, y, z;
+    std::vector<float> ex, ey, ez;
   };
   CellOrdered &ordered;
 };
+
+// How much more than the reach the rods' single-precision preselection keeps. A candidate's
+// centre lies within (k + 1) cell sides of the searched cell's first body on every axis
+// (k: the stencil's offsets each way), so its relative coordinates, and every length the
+// test forms from them, are below M = sqrt(3) (k + 1) (largest side). Each is rounded to
+// single precision (2^-24 M) and goes through a dozen operations: a length compared is off by
+// well under 1e-6 M. The margin, 1e-5 M plus 1e-4 of the reach (~4e-4 D in the nematic), is
+// over ten times that, so every pair the exact test (list_pairs) would list is kept; the few
+// more it keeps, that test drops.
+double reach_margin(const CellList &cl, const Box &box, double reach) {
+  const double side[3] = {box.length.x, box.length.y, box.length.z};
+  double extent = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    const double k = static_cast<double>(cl.axis_offsets[a].size() / 2);
+    extent = std::max(extent, (k + 1.0) * side[a] / cl.cells[a]);
+  }
+  return 1e-4 * reach + 1e-5 * std::sqrt(3.0) * extent;
+}
 
 // The builder's storage for PairSearch::ordered (the builds of one thread share it).
 PairSearch::CellOrdered &kept_ordered() {
@@ -138,8 +159,10 @@ PairSearch::PairSearch(const Particles &p, const Box &box, const Shape &shape, c
   const double centre_reach = shape.length + reach;
   centre_reach2 = centre_reach * centre_reach;
   prefilter_reach2 = (reach + 1e-7) * (reach + 1e-7);
-  gather_reach2 = centre_reach2 * (1.0 + 1e-9) + 1e-9;
-  loose_reach2 = (reach + 1e-6) * (reach + 1e-6);
+  const double margin = reach_margin(cl, box, reach);
+  gather_reach2 = static_cast<float>((centre_reach + margin) * (centre_reach + margin));
+  loose_reach2 = static_cast<float>((reach + margin) * (reach + margin));
+  h_single = static_cast<float>(h);
   if (!unique_images || !rods) return;  // spheres: raw centres, by index (list_spheres)
   const std::uint32_t *order = cl.order.data();
   const std::size_t n = cl.order.size();
@@ -151,7 +174,9 @@ PairSearch::PairSearch(const Particles &p, const Box &box, const Shape &shape, c
     o.x[b] = Box::wrap(p.x[i], side[0]);
     o.y[b] = Box::wrap(p.y[i], side[1]);
     o.z[b] = Box::wrap(p.z[i], side[2]);
-    o.ex[b] = p.ex[i], o.ey[b] = p.ey[i], o.ez[b] = p.ez[i];
+    o.ex[b] = static_cast<float>(p.ex[i]);
+    o.ey[b] = static_cast<float>(p.ey[i]);
+    o.ez[b] = static_cast<float>(p.ez[i]);
   }
 }
 
@@ -170,12 +195,14 @@ struct CellScratch {
   // The cell's own bodies, then those of the stencil's later cells (nc > c): body a of
   // the cell meets the candidates after it, so each unordered pair is taken once.
   std::vector<std::uint32_t> cand;
-  // Their centres (unique_images): rods folded and shifted next to the cell, spheres raw.
+  // Their centres (unique_images): spheres' raw (cx, cy, cz); rods' folded, shifted next to
+  // the cell and taken relative to its first body, in single precision (fx, fy, fz), with
+  // their axes (fex, fey, fez).
   std::vector<double> cx, cy, cz;
-  std::vector<double> ex, ey, ez;  // and their axes (rods)
-  // 1 for a candidate kept by the preselection (as wide as a double: the vector loop that
-  // writes it then runs eight candidates at a time)
-  std::vector<std::uint64_t> keep;
+  std::vector<float> fx, fy, fz, fex, fey, fez;
+  // 1 for a candidate kept by the preselection (as wide as a float: the vector loop that
+  // writes it then runs sixteen candidates at a time)
+  std::vector<std::uint32_t> keep;
   std::vector<std::uint32_t> near;    // candidates kept for the exact test
   std::vector<double> distance;       // and their segment distances (list_pairs)
   std::vector<std::uint64_t> within;  // 1 for those within reach
@@ -290,26 +317,30 @@ void later_cells(const PairSearch &s, int c, CellScratch &w) {
   w.run_count = n;
 }
 
-// A run of n entries (cell order, from b0) into the candidates from q. Loops over all the
-// values at once, so that they vectorise without alias checks (the runs are ~20 long; a loop
-// per array became a library call).
+// A run of n entries (cell order, from b0) into the candidates from q, their centres shifted
+// by (sx, sy, sz) and taken relative to `from`. Loops over all the values at once, so that
+// they vectorise without alias checks (the runs are ~20 long; a loop per array became a
+// library call).
 inline void copy_rods(const PairSearch &s, std::size_t b0, std::size_t n, double sx, double sy,
-                      double sz, CellScratch &w, std::size_t q) {
+                      double sz, const Vec3 &from, CellScratch &w, std::size_t q) {
   const std::uint32_t *__restrict member = s.cl.order.data() + b0;
   std::uint32_t *__restrict cand = w.cand.data() + q;
   const PairSearch::CellOrdered &o = s.ordered;
   const double *__restrict fx = o.x.data() + b0, *__restrict fy = o.y.data() + b0,
                            *__restrict fz = o.z.data() + b0;
-  const double *__restrict fex = o.ex.data() + b0, *__restrict fey = o.ey.data() + b0,
-                           *__restrict fez = o.ez.data() + b0;
-  double *__restrict ox = w.cx.data() + q, *__restrict oy = w.cy.data() + q,
-                     *__restrict oz = w.cz.data() + q;
-  double *__restrict oex = w.ex.data() + q, *__restrict oey = w.ey.data() + q,
-                     *__restrict oez = w.ez.data() + q;
+  const float *__restrict fex = o.ex.data() + b0, *__restrict fey = o.ey.data() + b0,
+                          *__restrict fez = o.ez.data() + b0;
+  float *__restrict ox = w.fx.data() + q, *__restrict oy = w.fy.data() + q,
+                    *__restrict oz = w.fz.data() + q;
+  float *__restrict oex = w.fex.data() + q, *__restrict oey = w.fey.data() + q,
+                    *__restrict oez = w.fez.data() + q;
+  const double dx = sx - from.x, dy = sy - from.y, dz = sz - from.z;
 #pragma GCC ivdep  // (inlined, the restricts are lost)
   for (std::size_t t = 0; t < n; ++t) {
     cand[t] = member[t];
-    ox[t] = fx[t] + sx, oy[t] = fy[t] + sy, oz[t] = fz[t] + sz;
+    ox[t] = static_cast<float>(fx[t] + dx);
+    oy[t] = static_cast<float>(fy[t] + dy);
+    oz[t] = static_cast<float>(fz[t] + dz);
     oex[t] = fex[t], oey[t] = fey[t], oez[t] = fez[t];
   }
 }
@@ -337,18 +368,27 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
   const CellScratch::Run *runs = w.runs.data(), *runs_end = runs + w.run_count;
   for (const CellScratch::Run *r = runs; r != runs_end; ++r) total += r->end - r->begin;
   w.cand.resize(total);
-  if (s.unique_images) w.cx.resize(total), w.cy.resize(total), w.cz.resize(total);
-  if (s.unique_images && s.rods) w.ex.resize(total), w.ey.resize(total), w.ez.resize(total);
+  const bool unique_images = s.unique_images, rods = s.rods;
+  if (unique_images && !rods) w.cx.resize(total), w.cy.resize(total), w.cz.resize(total);
+  if (unique_images && rods) {
+    w.fx.resize(total), w.fy.resize(total), w.fz.resize(total);
+    w.fex.resize(total), w.fey.resize(total), w.fez.resize(total);
+  }
+  // The rods' centres relative to the cell's first body (folded): every candidate's within a
+  // few cells of it, so single precision keeps them to ~1e-6 D (reach_margin).
+  const std::uint32_t first = cl.cell_start[c];
+  const Vec3 from = unique_images && rods
+                        ? Vec3{s.ordered.x[first], s.ordered.y[first], s.ordered.z[first]}
+                        : Vec3{};
   // Locals: the stores below must not make the compiler reload the search's arrays.
   const std::uint32_t *__restrict member = cl.order.data();
   const std::uint32_t *__restrict start = cl.cell_start.data();
   std::uint32_t *__restrict cand = w.cand.data();
-  const bool unique_images = s.unique_images, rods = s.rods;
   std::size_t q = 0;
   for (const CellScratch::Run *r = runs; r != runs_end; ++r) {
     const std::size_t b0 = r->begin, n = r->end - r->begin;
     if (unique_images && rods)
-      copy_rods(s, b0, n, r->sx, r->sy, r->sz, w, q);
+      copy_rods(s, b0, n, r->sx, r->sy, r->sz, from, w, q);
     else if (unique_images)
       copy_spheres(s, b0, n, w, q);
     else
@@ -364,16 +404,16 @@ std::uint32_t gather_cell(const PairSearch &s, int c, CellScratch &w) {
 template <bool OwnedOnly>
 std::uint32_t list_kept(const PairSearch &s, CellScratch &w, std::uint32_t from) {
   const std::size_t ncand = w.cand.size();
-  const std::uint64_t *__restrict k = w.keep.data();
+  const std::uint32_t *__restrict k = w.keep.data();
   std::uint32_t *__restrict near = w.near.data();
   const std::uint32_t *__restrict cand = w.cand.data();
   const std::uint32_t owned = s.owned;
   const auto keeps = [&](std::size_t q) {
-    return OwnedOnly ? k[q] & static_cast<std::uint64_t>(cand[q] < owned) : k[q];
+    return OwnedOnly ? k[q] & static_cast<std::uint32_t>(cand[q] < owned) : k[q];
   };
   std::size_t kept = 0, q = from;
   for (; q + 8 <= ncand; q += 8) {
-    const std::uint64_t *__restrict b = k + q;
+    const std::uint32_t *__restrict b = k + q;
     if ((b[0] | b[1] | b[2] | b[3] | b[4] | b[5] | b[6] | b[7]) == 0) continue;
     for (std::size_t t = 0; t < 8; ++t) {
       near[kept] = cand[q + t];
@@ -390,28 +430,29 @@ std::uint32_t list_kept(const PairSearch &s, CellScratch &w, std::uint32_t from)
 // Rods with unique images: the centre test and the side-by-side bound (|r_perp| - h |e_j . n|
 // against the reach) of candidate a against every later candidate at once: a vector loop
 // writes which are kept, then they are listed in w.near. In a nematic about one candidate in
-// five passes the centre test and one in ~40 both. Looser than the exact tests of list_pairs
-// (a 1e-6 margin against rounding of the shifted folded centres), so it only drops pairs
-// those would drop. Returns how many are kept.
+// five passes the centre test and one in ~40 both. In single precision (sixteen candidates
+// a vector), looser than the exact tests of list_pairs by reach_margin, so it only drops
+// pairs those would drop, and the list is that of the exact tests alone. Returns how many are
+// kept.
 std::uint32_t preselect_rods(const PairSearch &s, CellScratch &w, std::uint32_t a) {
   const std::uint32_t ncand = static_cast<std::uint32_t>(w.cand.size());
-  const double h = s.h, gather_reach2 = s.gather_reach2, loose_reach2 = s.loose_reach2;
-  const double xi = w.cx[a], yi = w.cy[a], zi = w.cz[a];
-  const double eix = w.ex[a], eiy = w.ey[a], eiz = w.ez[a];
+  const float h = s.h_single, gather_reach2 = s.gather_reach2, loose_reach2 = s.loose_reach2;
+  const float xi = w.fx[a], yi = w.fy[a], zi = w.fz[a];
+  const float eix = w.fex[a], eiy = w.fey[a], eiz = w.fez[a];
   if (w.keep.size() < ncand) w.keep.resize(ncand);
-  std::uint64_t *__restrict k = w.keep.data();
-  const double *__restrict qx = w.cx.data(), *__restrict qy = w.cy.data(),
-                           *__restrict qz = w.cz.data(), *__restrict qex = w.ex.data(),
-                           *__restrict qey = w.ey.data(), *__restrict qez = w.ez.data();
+  std::uint32_t *__restrict k = w.keep.data();
+  const float *__restrict qx = w.fx.data(), *__restrict qy = w.fy.data(),
+                          *__restrict qz = w.fz.data(), *__restrict qex = w.fex.data(),
+                          *__restrict qey = w.fey.data(), *__restrict qez = w.fez.data();
 #pragma omp simd
   for (std::uint32_t q = a + 1; q < ncand; ++q) {
-    const double dx = qx[q] - xi, dy = qy[q] - yi, dz = qz[q] - zi;
-    const double s = dx * eix + dy * eiy + dz * eiz;
-    const double px = dx - s * eix, py = dy - s * eiy, pz = dz - s * eiz;
-    const double rp2 = px * px + py * py + pz * pz;
-    const double lower = rp2 - h * std::fabs(qex[q] * px + qey[q] * py + qez[q] * pz);
+    const float dx = qx[q] - xi, dy = qy[q] - yi, dz = qz[q] - zi;
+    const float s = dx * eix + dy * eiy + dz * eiz;
+    const float px = dx - s * eix, py = dy - s * eiy, pz = dz - s * eiz;
+    const float rp2 = px * px + py * py + pz * pz;
+    const float lower = rp2 - h * std::fabs(qex[q] * px + qey[q] * py + qez[q] * pz);
     // & rather than &&: with a branch in it the loop would not vectorise.
-    const bool apart = (lower > 0.0) & (lower * lower > loose_reach2 * rp2);
+    const bool apart = (lower > 0.0f) & (lower * lower > loose_reach2 * rp2);
     k[q] = (dx * dx + dy * dy + dz * dz < gather_reach2) & !apart;
   }
   // In the nematic 12 blocks of eight in 13 keep none: one candidate in ~65 is kept.

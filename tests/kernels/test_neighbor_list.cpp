@@ -173,6 +173,69 @@ INSTANTIATE_TEST_SUITE_P(
 
 // The promise of the skin: move every body by less than a bound b (here a translation of
 // length b, so its motion bound is b); while 2 b < skin, every pair closer than D is listed.
+// Pairs placed at the reach within a part in 10^7, side by side (where the preselection's
+// bound is tight) or crossing, their closest points inside both segments, far from the
+// origin of a large box: those just inside are listed, those just outside not, exactly as
+// brute force says. The rods' preselection runs in single precision (rounding ~1e-6 D here)
+// with a margin over the reach; without the margin the side-by-side pairs just inside are
+// lost.
+TEST(NeighborList, PairsAtTheReachAreListedAsBruteForceSays) {
+  for (const double length : {5.0, 100.0}) {
+    Shape shape;
+    shape.length = length;
+    const double h = shape.half_length(), skin = 0.4, reach = shape.diameter + skin;
+    Box box;
+    const double side = 6.0 * (length + reach);
+    box.length = {side, 1.1 * side, 1.2 * side};
+    std::mt19937_64 rng(17);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::normal_distribution<double> g(0.0, 1.0);
+    const auto unit = [&] {
+      const Vec3 v{g(rng), g(rng), g(rng)};
+      return (1.0 / norm(v)) * v;
+    };
+    const std::size_t pairs = 200;
+    Particles p;
+    p.resize(2 * pairs);
+    for (std::size_t k = 0; k < pairs; ++k) {
+      const Vec3 ei = unit();
+      const bool parallel = k % 2 == 0;
+      const Vec3 ej = parallel ? ei : unit();
+      Vec3 n = cross(ei, ej);
+      if (parallel) n = cross(ei, unit());
+      n = (1.0 / norm(n)) * n;
+      // Closest points at arms s on i and t on j, the segments' distance d along n.
+      const double s = (2.0 * u(rng) - 1.0) * 0.9 * h, t = (2.0 * u(rng) - 1.0) * 0.9 * h;
+      const double d = reach * (k % 4 < 2 ? 1.0 - 1e-7 : 1.0 + 1e-7);
+      const Vec3 xi{(0.5 + 0.5 * u(rng)) * box.length.x, (0.5 + 0.5 * u(rng)) * box.length.y,
+                    (0.5 + 0.5 * u(rng)) * box.length.z};
+      const Vec3 xj = xi + s * ei + d * n - t * ej;
+      p.id[2 * k] = static_cast<std::int64_t>(2 * k);
+      p.id[2 * k + 1] = static_cast<std::int64_t>(2 * k + 1);
+      p.set_position(2 * k, xi);
+      p.set_axis(2 * k, ei);
+      p.set_position(2 * k + 1, box.wrap(xj));
+      p.set_axis(2 * k + 1, ej);
+    }
+    const std::map<IdPair, double> expected = pairs_within(p, box, shape, reach);
+    NeighborList list;
+    list.skin = skin;
+    build_neighbor_list(list, p, p.size(), box, shape);
+    ASSERT_TRUE(list.cells.full_stencil) << "the preselection runs with the full stencil only";
+    const std::map<IdPair, double> got = listed(list, p);
+    for (const auto &[pair, d] : expected)
+      EXPECT_TRUE(got.count(pair)) << "L " << length << ": missing " << pair.first << "-"
+                                   << pair.second << " at " << d - reach << " from the reach";
+    for (const auto &[pair, slack] : got)
+      EXPECT_TRUE(expected.count(pair))
+          << "L " << length << ": extra " << pair.first << "-" << pair.second;
+    int inside = 0;  // by id: the build sorts the bodies
+    for (std::int64_t k = 0; k < static_cast<std::int64_t>(pairs); ++k)
+      inside += expected.count({2 * k, 2 * k + 1}) > 0;
+    EXPECT_EQ(inside, static_cast<int>(pairs / 2)) << "L " << length << ": the placed pairs";
+  }
+}
+
 TEST(NeighborList, UnlistedPairsCannotTouchWhileTheBoundsStayBelowTheSkin) {
   Shape shape;
   Box box;
