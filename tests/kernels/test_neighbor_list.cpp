@@ -176,11 +176,11 @@ INSTANTIATE_TEST_SUITE_P(
 // Pairs placed at the reach within a part in 10^7, side by side (where the preselection's
 // bound is tight) or crossing, their closest points inside both segments, far from the
 // origin of a large box: those just inside are listed, those just outside not, exactly as
-// brute force says. The rods' preselection runs in single precision (rounding ~1e-6 D here)
+// brute force says. The rods' preselection runs in single precision (rounding ~1e-6 D at L/D 5)
 // with a margin over the reach; without the margin the side-by-side pairs just inside are
 // lost.
 TEST(NeighborList, PairsAtTheReachAreListedAsBruteForceSays) {
-  for (const double length : {5.0, 100.0}) {
+  for (const double length : {5.0, 100.0, 1000.0}) {
     Shape shape;
     shape.length = length;
     const double h = shape.half_length(), skin = 0.4, reach = shape.diameter + skin;
