@@ -171,8 +171,6 @@ INSTANTIATE_TEST_SUITE_P(
       return name;
     });
 
-// The promise of the skin: move every body by less than a bound b (here a translation of
-// length b, so its motion bound is b); while 2 b < skin, every pair closer than D is listed.
 // Pairs placed at the reach within a part in 10^7, side by side (where the preselection's
 // bound is tight) or crossing, their closest points inside both segments, far from the
 // origin of a large box: those just inside are listed, those just outside not, exactly as
@@ -236,6 +234,8 @@ TEST(NeighborList, PairsAtTheReachAreListedAsBruteForceSays) {
   }
 }
 
+// The promise of the skin: move every body by less than a bound b (here a translation of
+// length b, so its motion bound is b); while 2 b < skin, every pair closer than D is listed.
 TEST(NeighborList, UnlistedPairsCannotTouchWhileTheBoundsStayBelowTheSkin) {
   Shape shape;
   Box box;
