@@ -308,9 +308,10 @@ Vec3 Flight::axis(double t) const {
 
 bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const SegmentClosest &c,
                      double h, double D, double t_to, double margin) {
-  if (h <= 0.0) return spheres_apart(r, b.v - a.v, D, t_to, margin);
-  return apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin) ||
-         apart_turning(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin);
+  double proven = 0.0;  // (what the one queue keeps: Candidate::proven)
+  if (h <= 0.0) return spheres_apart(r, b.v - a.v, D, t_to, margin, proven);
+  return apart_along_gap(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin, proven) ||
+         apart_turning(a.e, a.v, a.w, b.e, b.v, b.w, r, c, h, D, t_to, margin, proven);
 }
 
 }  // namespace hardrod

@@ -142,11 +142,16 @@ bool apart_in_flight(const Flight &a, const Flight &b, const Vec3 &r, const Segm
                      double h, double D, double t_to, double margin);
 // Its test for spheres (h = 0), inline so that the detection runs it over a batch in vector
 // lanes (the same bits): the least distance of r + u s on [0, t_to], u = b.v - a.v, above
-// D + margin. NaN: not apart.
-inline bool spheres_apart(const Vec3 &r, const Vec3 &u, double D, double t_to, double margin) {
+// D + margin. NaN: not apart. `proven`, as the rods' screens give it (gap_bound.hpp): where
+// apart, that least distance less D + margin, else 0.
+inline bool spheres_apart(const Vec3 &r, const Vec3 &u, double D, double t_to, double margin,
+                          double &proven) {
   const double uu = norm2(u);
   const double s = uu > 0.0 ? std::clamp(-dot(r, u) / uu, 0.0, t_to) : 0.0;
-  return norm(r + s * u) - D > margin;
+  const double least = norm(r + s * u) - D;
+  const bool apart = least > margin;
+  proven = apart ? least - margin : 0.0;
+  return apart;
 }
 // For rods, apart_in_flight = apart_along_gap || apart_turning (gap_bound.hpp), the two screens
 // the detection runs over a batch of candidates in vector lanes, with the same bits.

@@ -731,6 +731,7 @@ ExactStats &ExactStats::operator+=(const ExactStats &o) {
   grazes += o.grazes;
   queued += o.queued;
   extra_pairs += o.extra_pairs;
+  kept_apart += o.kept_apart;
   virial += o.virial;
   return *this;
 }

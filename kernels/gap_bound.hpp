@@ -5,13 +5,22 @@
 // them in vector lanes over a batch of candidates, with the same bits as apart_in_flight.
 #pragma once
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "kernels/segment_geometry.hpp"
 #include "kernels/vec3.hpp"
 
 namespace hardrod {
+
+// x where `keep`, else +0.0: a mask of x's bits rather than a select, as GCC 12 vectorises a
+// choice between doubles on a comparison of doubles, not on a flag made of several (`&`).
+[[gnu::always_inline]] inline double kept_or_zero(bool keep, double x) {
+  return std::bit_cast<double>(std::bit_cast<std::uint64_t>(x) & (std::uint64_t{0} - keep));
+}
 
 // One rod's part of the bound L(s): h (|A + C s| - |A| + K2 s^2 + K3 s^3).
 struct AxisBound {
@@ -53,10 +62,15 @@ struct GapBound {
 // closest points' own direction, unrefined, proves the pair's surfaces more than `margin` apart
 // over [0, t_to] (any unit n gives a lower bound). Bodies a, b: axes e, velocities v, angular
 // velocities w; r = x_b - x_a; c their closest points. False when not proven (also for
-// closest points nearer than D / 2, and for non-finite input).
-inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa, const Vec3 &eb,
-                            const Vec3 &vb, const Vec3 &wb, const Vec3 &r, const SegmentClosest &c,
-                            double h, double D, double t_to, double margin) {
+// closest points nearer than D / 2, and for non-finite input). `proven`: where proven, the
+// bound's least value on [0, t_to] (a concave function's: at an end), so that the surface gap
+// less `margin` stays above it all that time; else 0. (The one queue keeps a pair apart with it
+// after a body's velocity changes, exact_queue.cpp.)
+[[gnu::always_inline]] inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa,
+                                                   const Vec3 &eb, const Vec3 &vb, const Vec3 &wb,
+                                                   const Vec3 &r, const SegmentClosest &c, double h,
+                                                   double D, double t_to, double margin,
+                                                   double &proven) {
   const Vec3 n = (1.0 / std::sqrt(c.dist2)) * c.gap;
   GapBound quick;
   quick.a = axis_bound(n, ea, wa);
@@ -65,8 +79,11 @@ inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa, cons
   quick.closing = dot(n, va - vb);
   quick.g0 = -dot(n, r) - h * (std::abs(quick.a.A) + std::abs(quick.b.A)) - D - margin;
   // & rather than &&, and |x| <= max for isfinite: without branches the batch vectorises.
-  return (c.dist2 > 0.25 * D * D) & (quick.g0 > 0.0) & (quick.value(t_to) > 0.0) &
-         (std::abs(quick.slope(t_to)) <= std::numeric_limits<double>::max());
+  const double end = quick.value(t_to);
+  const bool apart = (c.dist2 > 0.25 * D * D) & (quick.g0 > 0.0) & (end > 0.0) &
+                     (std::abs(quick.slope(t_to)) <= std::numeric_limits<double>::max());
+  proven = kept_or_zero(apart, quick.g0 < end ? quick.g0 : end);
+  return apart;
 }
 
 // The same separation along a direction that turns, n(s) = n rotated by omega s: still a
@@ -110,11 +127,13 @@ inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa, cons
 // axis. Then the plain Lipschitz bound. The same arithmetic as those functions, without
 // branches (selects), so that the detection runs it over a batch in vector lanes, and the
 // scalar apart_in_flight with the same bits. False when not proven (also for closest points
-// nearer than D / 2, and for non-finite input).
+// nearer than D / 2, and for non-finite input). `proven` as apart_along_gap's: the largest of
+// the least values of the bounds that proved it (the Lipschitz bound's at t_to), else 0.
 [[gnu::always_inline]] inline bool apart_turning(const Vec3 &ea, const Vec3 &va, const Vec3 &wa,
                                                  const Vec3 &eb, const Vec3 &vb, const Vec3 &wb,
                                                  const Vec3 &r, const SegmentClosest &c, double h,
-                                                 double D, double t_to, double margin) {
+                                                 double D, double t_to, double margin,
+                                                 double &proven) {
   constexpr double big = std::numeric_limits<double>::max();
   const auto finite = [](double x) { return std::abs(x) <= big; };
   const auto select = [](bool p, const Vec3 &x, const Vec3 &y) {
@@ -157,15 +176,24 @@ inline bool apart_along_gap(const Vec3 &ea, const Vec3 &va, const Vec3 &wa, cons
   const Vec3 omega_a = (ra / ga) * ma, omega_b = (rb / gb) * mb;
   // turning_bound for a rate, and whether it clears [0, t_to]
   const Vec3 dx = -r, dv = va - vb;
-  const auto clears = [&](const Vec3 &omega) __attribute__((always_inline)) {
+  // Each rate's bound: its least value on [0, t_to] where it clears, else 0.
+  const auto least = [&](bool tried, const Vec3 &omega) __attribute__((always_inline)) {
     const GapBound b = turning_bound(n, omega, dx, dv, ea, wa, eb, wb, h, g0);
-    return (b.g0 > 0.0) & finite(b.slope(t_to)) & (b.value(t_to) > 0.0);
+    const double end = b.value(t_to);
+    const bool clears = tried & (b.g0 > 0.0) & finite(b.slope(t_to)) & (end > 0.0);
+    return kept_or_zero(clears, b.g0 < end ? b.g0 : end);
   };
-  const bool turned = (with_both & clears(omega_both)) | ((keep_a & (ga > 0.5)) & clears(omega_a)) |
-                      ((keep_b & (gb > 0.5)) & clears(omega_b));
+  const double by_both = least(with_both, omega_both);
+  const double by_a = least(keep_a & (ga > 0.5), omega_a);
+  const double by_b = least(keep_b & (gb > 0.5), omega_b);
+  const bool turned = (by_both > 0.0) | (by_a > 0.0) | (by_b > 0.0);
   const double lipschitz = norm(dv) + h * (norm(wa) + norm(wb));  // |d gap / dt|
   const bool plain = !((gap - margin) / lipschitz < t_to);
-  return usable & (turned | plain);
+  const double by_plain = kept_or_zero(plain, (gap - margin) - lipschitz * t_to);
+  const double best = std::max(std::max(by_both, by_a), std::max(by_b, by_plain));
+  const bool apart = usable & (turned | plain);
+  proven = kept_or_zero(apart, best);
+  return apart;
 }
 
 }  // namespace hardrod

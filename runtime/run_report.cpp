@@ -183,9 +183,10 @@ nlohmann::json exact_json(Simulation &sim) {
   const ExactRecord &mine = sim.exact_record();
   ExactRecord r = mine;
   ExactStats &t = r.totals;
-  for (long long *v : {&t.candidates, &t.apart, &t.clusters, &t.collisions, &t.events, &t.searches,
-                       &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown,
-                       &t.fallbacks, &t.grazes, &t.queued, &t.extra_pairs, &t.spares})
+  for (long long *v :
+       {&t.candidates, &t.apart, &t.clusters, &t.collisions, &t.events, &t.searches,
+        &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown, &t.fallbacks, &t.grazes,
+        &t.queued, &t.extra_pairs, &t.spares, &t.kept_apart})
     *v = comm.sum("summary", *v);
   t.largest_cluster = static_cast<long long>(
       comm.max("summary", {static_cast<double>(mine.totals.largest_cluster)})[0]);
@@ -208,6 +209,7 @@ nlohmann::json exact_json(Simulation &sim) {
           {"queued_steps", t.queued},
           {"extra_pairs", t.extra_pairs},
           {"spare_pairs", t.spares},
+          {"kept_apart", t.kept_apart},
           {"rebuilt_in_step", r.rebuilt_in_step},
           {"list_extensions", comm.sum("summary", sim.neighbor_list().extensions)},
           {"collisions_per_step", per_step(t.collisions)},

@@ -405,7 +405,7 @@ TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
        Box{{30.0, 20.0, 20.0}}, sphere, 0.01, 0},
   };
   const auto by_body = [](const FlownBody &x, const FlownBody &y) { return x.body < y.body; };
-  long long extra = 0, spares = 0, collisions = 0, queued = 0, fallbacks = 0;
+  long long extra = 0, spares = 0, collisions = 0, queued = 0, fallbacks = 0, kept = 0;
   for (const auto &c : cases) {
     Particles p = c.p;
     NeighborList built;
@@ -451,11 +451,13 @@ TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
       collisions += b.collisions;
       queued += b.queued;
       fallbacks += b.fallbacks;
+      kept += b.queued > 0 ? b.kept_apart : 0;
     }
   }
   EXPECT_EQ(queued, 4 * 4) << "the row past the cap must leave the queue";
   EXPECT_EQ(fallbacks, 4);
   EXPECT_GE(extra, 2) << "the test must exercise pairs a body's overrun brings in";
+  EXPECT_GT(kept, 10) << "and searches a pair's proof made needless (Candidate::proven)";
   EXPECT_GT(spares, 10) << "the test must exercise the allowance's spares";
   EXPECT_GT(collisions, 4 * 40) << "the test must exercise collisions";
 }
