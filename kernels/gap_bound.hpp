@@ -119,6 +119,30 @@ struct GapBound {
   return out;
 }
 
+// x where p, else y: a select per component (branch free, for vector lanes).
+[[gnu::always_inline]] inline Vec3 select3(bool p, const Vec3 &x, const Vec3 &y) {
+  return Vec3{p ? x.x : y.x, p ? x.y : y.y, p ? x.z : y.z};
+}
+
+// separating_normal (contact_time.cpp) without branches: the closest points' direction made
+// square to each axis whose closest point is interior (both: the normal of the axes' plane).
+[[gnu::always_inline]] inline Vec3 separating_normal_lanes(const SegmentClosest &c, const Vec3 &ea,
+                                                           const Vec3 &eb, double h) {
+  const Vec3 n0 = (1.0 / std::sqrt(c.dist2)) * c.gap;
+  const bool inner_a = std::abs(c.s) < h, inner_b = std::abs(c.t) < h;
+  const Vec3 f = std::copysign(1.0, dot(ea, eb)) * eb;
+  const Vec3 x = cross(ea - f, ea);
+  const double x2 = norm2(x);
+  const Vec3 nx = (1.0 / std::sqrt(x2)) * x;
+  const Vec3 n_both = select3(dot(nx, n0) < 0.0, -nx, nx);
+  const Vec3 ma0 = n0 - dot(n0, ea) * ea, mb0 = n0 - dot(n0, eb) * eb;
+  const double ma2 = norm2(ma0), mb2 = norm2(mb0);
+  const Vec3 n_a = select3(ma2 > 1e-200, (1.0 / std::sqrt(ma2)) * ma0, n0);
+  const Vec3 n_b = select3(mb2 > 1e-200, (1.0 / std::sqrt(mb2)) * mb0, n0);
+  return select3(inner_a & inner_b & (x2 > 1e-28), n_both,
+                 select3(inner_a, n_a, select3(inner_b, n_b, n0)));
+}
+
 // The refined screen (apart_in_flight's second test): the same separation along a normal that
 // turns with the bodies (turning_bound above; contact_time.cpp explains turning_rates), from the
 // separating normal (separating_normal: the closest points' direction made square to each axis
@@ -136,23 +160,8 @@ struct GapBound {
                                                  double &proven) {
   constexpr double big = std::numeric_limits<double>::max();
   const auto finite = [](double x) { return std::abs(x) <= big; };
-  const auto select = [](bool p, const Vec3 &x, const Vec3 &y) {
-    return Vec3{p ? x.x : y.x, p ? x.y : y.y, p ? x.z : y.z};
-  };
-  // separating_normal
-  const Vec3 n0 = (1.0 / std::sqrt(c.dist2)) * c.gap;
+  const Vec3 n = separating_normal_lanes(c, ea, eb, h);
   const bool inner_a = std::abs(c.s) < h, inner_b = std::abs(c.t) < h;
-  const Vec3 f = std::copysign(1.0, dot(ea, eb)) * eb;
-  const Vec3 x = cross(ea - f, ea);
-  const double x2 = norm2(x);
-  const Vec3 nx = (1.0 / std::sqrt(x2)) * x;
-  const Vec3 n_both = select(dot(nx, n0) < 0.0, -nx, nx);
-  const Vec3 ma0 = n0 - dot(n0, ea) * ea, mb0 = n0 - dot(n0, eb) * eb;
-  const double ma2 = norm2(ma0), mb2 = norm2(mb0);
-  const Vec3 n_a = select(ma2 > 1e-200, (1.0 / std::sqrt(ma2)) * ma0, n0);
-  const Vec3 n_b = select(mb2 > 1e-200, (1.0 / std::sqrt(mb2)) * mb0, n0);
-  const Vec3 n = select(inner_a & inner_b & (x2 > 1e-28), n_both,
-                        select(inner_a, n_a, select(inner_b, n_b, n0)));
   // pair_state_from's checks and the fixed bound's g0 (with the margin taken off)
   const double gap = std::sqrt(c.dist2) - D;
   const Vec3 ua = va + cross(wa, c.s * ea), ub = vb + cross(wb, c.t * eb);
