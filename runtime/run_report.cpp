@@ -365,10 +365,12 @@ void print_results(const RunState &st, const nlohmann::json &summary, const fs::
     const long long queued = x["queued_steps"].get<long long>();
     fmt::print(
         "  exact collisions         {:.4g} per step; {:.4g} searches ({:.3g} gap evaluations "
-        "each), {:.4g} re-predictions per step; {}; fallbacks {}\n",
+        "each), {:.4g} re-predictions per step ({:.4g} more kept apart by their proofs); {}; "
+        "fallbacks {}\n",
         x["collisions_per_step"].get<double>(),
         x["searches"].get<double>() / std::max(1.0, x["steps"].get<double>()),
         x["root_iterations_per_search"].get<double>(), x["repredictions_per_step"].get<double>(),
+        x["kept_apart"].get<double>() / std::max(1.0, x["steps"].get<double>()),
         queued == x["steps"].get<long long>()
             ? std::string("events in one queue")
             : fmt::format("largest cluster {}", x["largest_cluster"].get<long long>()),
