@@ -88,8 +88,8 @@ struct ExactStats {
   long long grazes = 0;           // contacts found closing that the impulse saw receding
   long long queued = 0;           // steps whose events ran in one queue (ExactSettings::one_queue)
   long long extra_pairs = 0;      // the queue's pairs a body's overrun could bring to touch
-  long long kept_apart = 0;  // the queue's searches again not made: the pair's proof still held
-  ExactSum virial;           // sum of J n . (x_i - x_j) at the touching configuration
+  long long kept_apart = 0;       // the queue's searches again left out: the pair's proof held
+  ExactSum virial;                // sum of J n . (x_i - x_j) at the touching configuration
 
   // Sums, and the larger largest_cluster.
   ExactStats &operator+=(const ExactStats &other);
