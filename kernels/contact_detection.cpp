@@ -10,8 +10,8 @@
 #include <type_traits>
 #include <utility>
 
-#include "kernels/contact_time.hpp"
-#include "kernels/gap_bound.hpp"
+#include "kernels/exact/contact_time.hpp"
+#include "kernels/exact/gap_bound.hpp"
 #include "kernels/lanes.hpp"
 #include "kernels/segment_geometry.hpp"
 

@@ -29,8 +29,8 @@ struct DetectionStats {
 DetectionStats detect_contacts(const Particles &p, const Box &box, const Shape &shape,
                                NeighborList &list, std::vector<Contact> &contacts);
 
-// The exact method's candidates (kernels/exact_collisions.hpp), with `ahead`: the bodies are at
-// the start of the step, their motion bounds already include the whole step's free flight, and
+// The exact method's candidates (kernels/exact/exact_collisions.hpp), with `ahead`: the bodies are
+// at the start of the step, their motion bounds already include the whole step's free flight, and
 // grow[i] is body i's growth per half step (Particles::grow). A candidate is a pair that could
 // touch within the step (gap below the two flights, 2 (grow[i] + grow[j])), its depth negative
 // when apart, and slacks are renewed for the start positions. A candidate is marked `apart`

@@ -55,7 +55,7 @@ double half_step(Particles &p, std::size_t count, const Shape &shape, double hal
 // happens between them (no contacts are resolved between the two halves of one pass).
 double two_half_steps(Particles &p, std::size_t count, const Shape &shape, double half_dt);
 
-// The exact method's step (kernels/exact_collisions.hpp) grows the motion bounds before it
+// The exact method's step (kernels/exact/exact_collisions.hpp) grows the motion bounds before it
 // moves the bodies, so that the detection at the step's start sees the whole step's flight:
 // grow_bounds adds two half steps' growth to bodies [0, count) (the same additions as
 // two_half_steps; returns the largest bound, or NaN or infinity if any bound is not finite),
@@ -63,7 +63,7 @@ double two_half_steps(Particles &p, std::size_t count, const Shape &shape, doubl
 // steps (positions and axes, the same bits as two_half_steps) leaving the bounds alone.
 // Both read the motion constants as they are (refresh_motion).
 double grow_bounds(Particles &p, std::size_t count);
-// The same, and in the same pass what a list's extension asks (kernels/list_extension.hpp):
+// The same, and in the same pass what a list's extension asks (kernels/exact/list_extension.hpp):
 // the largest bound less the body's extra reach (extra: [0, count); null where none has any:
 // then the largest bound, and one array less to read) and the largest step's flight (2 grow).
 struct GrownBounds {

@@ -17,7 +17,7 @@ namespace {
 // before the other shadows, in their order, so the per-step passes advance [0, list.active).
 // Every contact this rank detects then has an owned body, and every contact of an owned body
 // is detected here: the contacts of a cluster that spans ranks are put together from their
-// owners' records (Simulation::resolve_across_ranks). Shadows past list.active are not
+// owners' records (MidpointStep::resolve_across_ranks). Shadows past list.active are not
 // advanced until the next rebuild replaces them.
 void keep_first_ring(NeighborList &list, Particles &p, std::size_t count, std::size_t owned) {
   std::vector<std::uint8_t> ring1(count, 0);
@@ -63,22 +63,6 @@ void sort_bodies_by_cell(CellList &cells, Particles &p, std::size_t count, std::
     if (b >= owned) where[b] = static_cast<std::uint32_t>(perm.size()), perm.push_back(b);
   p.permute(perm);
   for (std::uint32_t &b : cells.order) b = where[b];
-}
-
-// The centres (and rods' axes) at the build and zero extra reaches, for extensions
-// (list_extension.hpp): where the list keeps them, one rank without shadows only; else empty.
-void keep_build_state(NeighborList &list, const Particles &p, std::size_t count, std::size_t owned,
-                      const Shape &shape) {
-  const bool keep = list.keep_build_state && count == owned, axes = keep && !shape.is_sphere();
-  const auto copy = [count](std::vector<double> &to, const std::vector<double> &from, bool kept) {
-    to.assign(from.begin(), from.begin() + static_cast<long>(kept ? count : 0));
-  };
-  auto &b = list.built;
-  copy(b.x, p.x, keep), copy(b.y, p.y, keep), copy(b.z, p.z, keep);
-  copy(b.ex, p.ex, axes), copy(b.ey, p.ey, axes), copy(b.ez, p.ez, axes);
-  list.extra_reach.assign(keep ? list.active : 0, 0.0);
-  list.largest_extra = 0.0;
-  list.extended = 0;
 }
 
 // What the search for pairs reads, fixed for one build.
@@ -671,7 +655,6 @@ void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, st
   if (count > owned) keep_first_ring(list, p, count, owned);
   list.watched_steps = 0;
   list.near.valid = list.near.off = false;
-  keep_build_state(list, p, count, owned, shape);
   if (list.unarmed_builds > 0) {  // the full pass until the next build: no watches to set
     --list.unarmed_builds;
     index_pairs(list);

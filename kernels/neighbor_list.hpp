@@ -111,19 +111,6 @@ struct NeighborList {
   // the bodies it gives new pairs to the end, so the walks of the exact method read pairs_end.
   // The watched detection, which an extension turns off, reads pairs_start[i + 1].
   std::vector<std::uint32_t> pairs_start, pairs_end, pair_index, pair_partner;
-  // Each body's reach beyond half the skin (list_extension.hpp), [0, active), 0 after a
-  // build (empty where the list keeps no build state), and the largest. `extended`:
-  // extensions since the build; `extensions`: all (a statistic).
-  std::vector<double> extra_reach;
-  double largest_extra = 0.0;
-  long long extended = 0, extensions = 0;
-  // The bodies' centres (and rods' axes) at the build, which an extension measures: kept
-  // where asked (keep_build_state: the exact method's lists) and there are no shadows (one
-  // rank), else empty.
-  bool keep_build_state = false;
-  struct {
-    std::vector<double> x, y, z, ex, ey, ez;
-  } built;
   // Body i's pairs need a look once motion_bound[i] >= watch[i], the smallest allowance of
   // body i over its pairs (+infinity without pairs). [0, active).
   std::vector<double> watch;
@@ -170,7 +157,7 @@ void arm_watches(NeighborList &list);
 // in them (the "first ring") are stored right after the owned bodies, [owned, list.active);
 // the other shadows are moved behind them and are not advanced. A contact between two
 // shadows is detected by their owners, which send it where a cluster needs it
-// (Simulation::resolve_across_ranks).
+// (MidpointStep::resolve_across_ranks).
 void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, std::size_t owned,
                          const Box &box, const Shape &shape);
 inline void build_neighbor_list(NeighborList &list, Particles &p, std::size_t count, const Box &box,

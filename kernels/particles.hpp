@@ -75,7 +75,7 @@ using BodyField = std::vector<double> Particles::*;
 
 // A body's state besides its id: the twelve doubles that define it, in the one order used
 // wherever a body is stored, sent, hashed or compared (runtime/body_wire.hpp, checkpoint
-// rows, the state checksum, Simulation::verify_bodies). Changing the order changes the
+// rows, the state checksum, System::verify_bodies). Changing the order changes the
 // checksum of every run.
 inline constexpr std::array<BodyField, 12> kStateFields = {
     &Particles::x,  &Particles::y,  &Particles::z,  &Particles::ex, &Particles::ey, &Particles::ez,

@@ -1,4 +1,4 @@
-// The rotor constraints (phase 7 of the step, runtime/simulation.hpp); the free flight itself
+// The rotor constraints (phase 7 of the step, runtime/system.hpp); the free flight itself
 // is kernels/free_flight.hpp. The rotation of the free flight keeps |e| = 1 and w perpendicular to
 // e only to round-off (~1e-16 per step); restore_rotor_constraints removes that drift. After it the
 // velocities have changed: refresh_motion (free_flight.hpp) before the next drift. Element-wise,

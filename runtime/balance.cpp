@@ -37,8 +37,10 @@ std::vector<double> balanced_cuts(const std::vector<double> &cuts, const std::ve
     total += w;
   }
   if (!(total > 0.0)) return cuts;
+  // A slab an earlier step left at the limit may sit a rounding below it: still at the limit.
+  const double at_limit = min_width * (1.0 - 1e-9);
   for (std::size_t s = 0; s < n; ++s)
-    if (!(cuts[s + 1] - cuts[s] >= min_width)) return cuts;
+    if (!(cuts[s + 1] - cuts[s] >= at_limit)) return cuts;
 
   // Cumulative load, piecewise linear between the old cuts: invert it at k total / n.
   std::vector<double> target(cuts);
@@ -56,7 +58,8 @@ std::vector<double> balanced_cuts(const std::vector<double> &cuts, const std::ve
   for (std::size_t k = 0; k < n; ++k) {
     const double w_old = cuts[k + 1] - cuts[k];
     const double w_new = target[k + 1] - target[k];
-    if (w_new < min_width) step = std::min(step, (w_old - min_width) / (w_old - w_new));
+    if (w_new < min_width)
+      step = std::min(step, std::max(0.0, (w_old - min_width) / (w_old - w_new)));
   }
   std::vector<double> out(cuts);
   for (std::size_t k = 1; k < n; ++k) out[k] = cuts[k] + step * (target[k] - cuts[k]);

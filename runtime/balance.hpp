@@ -36,7 +36,7 @@ const char *balance_mode_name(BalanceMode mode);
 // the same share, except that no slab gets thinner than `min_width` (then the cuts take the
 // largest step towards that target that keeps every slab at least that wide; cuts that
 // already violate it are left alone). Any shift is allowed: the rebuild moves the cuts in
-// stages (Simulation::take_new_cuts). Loads that are not finite and positive leave the cuts
+// stages (System::take_new_cuts). Loads that are not finite and positive leave the cuts
 // unchanged.
 std::vector<double> balanced_cuts(const std::vector<double> &cuts, const std::vector<double> &loads,
                                   double min_width);

@@ -5,13 +5,13 @@
 #include <algorithm>
 #include <cmath>
 
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 
 // Every rank holds all bodies at start: cuts that share them out evenly along each axis (a
 // few passes of the balancer on the slabs' counts; the same on every rank).
-Cuts Simulation::starting_cuts(const Particles &all) const {
+Cuts System::starting_cuts(const Particles &all) const {
   const auto &grid = domain_.grid();
   Cuts cuts = domain_.cuts();
   const double *at[3] = {all.x.data(), all.y.data(), all.z.data()};
@@ -28,7 +28,7 @@ Cuts Simulation::starting_cuts(const Particles &all) const {
   return cuts;
 }
 
-void Simulation::check_balance() {
+void System::check_balance() {
   const auto &grid = domain_.grid();
   double load = static_cast<double>(advanced());
   if (balance_.mode == BalanceMode::kTime) {

@@ -1,8 +1,8 @@
 // A body on the wire, between ranks (migration, shadows, gathers): its id and the twelve
 // doubles of its state (kStateFields, kernels/particles.hpp). The motion bound restarts at 0
 // with every rebuild and the motion constants are refreshed on arrival, so neither travels.
-// Not the wire of the spanning-cluster protocol (runtime/cluster_protocol.hpp), which sends
-// velocities and contacts only.
+// Not the wire of the methods' cluster protocols (runtime/midpoint/cluster_protocol.hpp,
+// runtime/exact/exact_protocol.hpp), which send what their solvers read.
 #pragma once
 
 #include <fmt/format.h>
@@ -15,6 +15,10 @@
 #include "kernels/particles.hpp"
 
 namespace hardrod {
+
+// A body's count of contacts (or edges) its owner has not told (the body is a shadow where the
+// record was made), and "no cluster" / "no slot" in the methods' index lists.
+inline constexpr std::uint32_t kDegreeUnknown = 0xffffffffu;
 
 inline constexpr std::size_t kBodyBytes =
     sizeof(std::int64_t) + kStateFields.size() * sizeof(double);

@@ -34,7 +34,7 @@ inline constexpr const char *kPreviousCheckpointFile = "checkpoint.prev.h5";
 struct Checkpoint {
   long long step = 0;
   long long n = 0;
-  std::string state_checksum;  // of the bodies, as Simulation::state_checksum()
+  std::string state_checksum;  // of the bodies, as System::state_checksum()
   std::string scene_toml;
   std::string run_state;   // JSON
   std::string root_state;  // JSON or empty

@@ -1,7 +1,8 @@
 // The decomposition of the bodies over ranks (runtime/domain.hpp): the grid chosen at start,
-// the bodies a rank keeps, and at every rebuild (phase 4, runtime/simulation.hpp) new cuts
+// the bodies a rank keeps, and at every rebuild (phase 4, runtime/system.hpp) new cuts
 // taken in stages, migration of bodies whose centres left the subdomain, fresh shadow
-// copies with the ranks that hold each body, and the index of local bodies by id. Not here:
+// copies with the ranks that hold each body, and the index of local bodies by id, with the
+// lookups the methods' cross-rank protocols make in it. Not here:
 // when cuts move (runtime/balance_check.cpp) and the pair list (kernels/neighbor_list.hpp).
 #include <fmt/format.h>
 
@@ -10,12 +11,12 @@
 
 #include "kernels/order_tensor.hpp"
 #include "runtime/body_wire.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 
 // The grid of ranks and the domain, from all bodies (the same on every rank).
-void Simulation::decompose(const Particles &all, const ParallelOptions &parallel) {
+void System::decompose(const Particles &all, const ParallelOptions &parallel) {
   std::array<int, 3> grid = parallel.grid;
   if (grid[0] * grid[1] * grid[2] == 0) {
     grid = comm_.make_grid({0, 0, 0});  // non-increasing counts
@@ -46,7 +47,7 @@ void Simulation::decompose(const Particles &all, const ParallelOptions &parallel
 }
 
 // Every rank made the same full state: this one keeps the bodies whose centres it owns.
-void Simulation::keep_owned(const Particles &all) {
+void System::keep_owned(const Particles &all) {
   Particles mine;
   for (std::size_t i = 0; i < all.size(); ++i) {
     if (domain_.owner_of(all.position(i)) != comm_.rank()) continue;
@@ -61,7 +62,7 @@ void Simulation::keep_owned(const Particles &all) {
 
 // Phase 4: bodies to their owners, fresh shadows and a new pair list (with new cuts first
 // when the balancer set some).
-void Simulation::rebuild() {
+void System::rebuild() {
   ScopedRegion r(timers_, Region::kNeighborBuild);
   if (!pending_cuts_[0].empty()) take_new_cuts();
   if (comm_.size() > 1) redistribute();
@@ -73,7 +74,7 @@ void Simulation::rebuild() {
 // reach: then every body's new owner is a partner (it is within that distance plus its motion
 // since the last rebuild, < skin, of its old subdomain), and each stage but the last (which
 // redistribute() ends) migrates the bodies.
-void Simulation::take_new_cuts() {
+void System::take_new_cuts() {
   const Cuts from = domain_.cuts(), to = std::move(pending_cuts_);
   pending_cuts_ = {};
   double most = 0.0;
@@ -96,18 +97,9 @@ void Simulation::take_new_cuts() {
   ++balanced_.shifts;
 }
 
-// A contact crosses a rank boundary when one of its bodies is a shadow here or has shadow
-// copies elsewhere: only then does another rank see it or need its result.
-bool Simulation::touches_boundary() const {
-  if (comm_.size() == 1) return false;
-  for (const Contact &c : contacts_)
-    if (shared_[c.i] || shared_[c.j]) return true;
-  return false;
-}
-
 // Bodies whose centres left the subdomain go to their new owner (a partner); the old
 // shadows are dropped.
-void Simulation::migrate() {
+void System::migrate() {
   const auto &partners = domain_.partners();
   const std::size_t np = partners.size();
   particles_.resize(owned_);
@@ -137,7 +129,7 @@ void Simulation::migrate() {
 
 // Migration of bodies that left the subdomain, then fresh shadow copies for every partner
 // within the halo, each carrying the list of ranks that hold it.
-void Simulation::redistribute() {
+void System::redistribute() {
   migrate();
   const auto &partners = domain_.partners();
   const std::size_t np = partners.size();
@@ -171,7 +163,7 @@ void Simulation::redistribute() {
 
 // Local index by id (for other ranks' results) and which bodies other ranks hold; one rank
 // needs neither (the map cost ~1 ms per rebuild of the paper scene).
-void Simulation::index_bodies() {
+void System::index_bodies() {
   index_.clear();
   shared_.assign(particles_.size(), 0);
   if (comm_.size() == 1) return;
@@ -180,6 +172,19 @@ void Simulation::index_bodies() {
     index_[particles_.id[i]] = static_cast<std::uint32_t>(i);
   for (std::size_t i = 0; i < particles_.size(); ++i)
     shared_[i] = i >= owned_ || !holding_.at(particles_.id[i]).holders.empty();
+}
+
+std::size_t System::advanced_index(std::int64_t id) const {
+  const auto it = index_.find(id);
+  return it == index_.end() || it->second >= advanced() ? kNotAdvanced : it->second;
+}
+
+void System::add_targets(std::int64_t id, std::vector<int> &targets) const {
+  const auto h = holding_.find(id);
+  if (h == holding_.end()) return;
+  if (h->second.owner != comm_.rank()) targets.push_back(h->second.owner);
+  for (int r : h->second.holders)
+    if (r != comm_.rank()) targets.push_back(r);
 }
 
 }  // namespace hardrod

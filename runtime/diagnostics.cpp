@@ -12,7 +12,7 @@
 
 #include "runtime/body_wire.hpp"
 #include "runtime/checkpoint.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 
@@ -35,7 +35,7 @@ std::string ownership_problem(const std::vector<char> &all, long long n) {
 
 }  // namespace
 
-void Simulation::verify_bodies() {
+void System::verify_bodies() {
   // Owned bodies: gathered at rank 0, which checks 0..n-1 once each.
   std::vector<char> mine;
   for (std::size_t i = 0; i < owned_; ++i) pack(mine, particles_.id[i]);
@@ -77,7 +77,7 @@ void Simulation::verify_bodies() {
                                        problem.empty() ? "(see rank 0)" : problem));
 }
 
-Particles Simulation::gather_bodies() {
+Particles System::gather_bodies() {
   std::vector<char> mine;
   mine.reserve(owned_ * kBodyBytes);
   for (std::size_t i = 0; i < owned_; ++i) pack_body(mine, particles_, i);
@@ -109,7 +109,7 @@ Particles Simulation::gather_bodies() {
   return bodies;
 }
 
-std::string Simulation::state_checksum() {
+std::string System::state_checksum() {
   const Particles p = gather_bodies();
   const std::uint64_t hash = body_hash(p);
   // Rank 0 computed it; a sum with zeros from the other ranks gives it to everyone.

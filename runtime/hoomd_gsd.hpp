@@ -76,12 +76,8 @@ struct GsdFrame {
 // values, non-zero quaternions; throws std::runtime_error naming the file, frame and chunk.
 GsdFrame read_gsd_frame(const std::string &path, long long frame, const Shape &shape);
 
-// init.configuration = "file" with init.file ending in .gsd: the frame init.frame, whose N and
-// box must be the scene's (the box to 32-bit precision), unwrapped with the scene's box; the
-// file's velocities if it has any, else fresh ones at init.temperature (a Monte Carlo state
-// has none). Throws SceneError naming init.file and what differs.
+// A file ending in .gsd (init.file: a GSD start, runtime/start.hpp).
 bool is_gsd_path(const std::string &path);
-Particles start_from_gsd(const Scene &scene);
 
 // Appends `frame` (unwrapped centres, axes, velocities) as the writer's next GSD frame. The
 // first frame also carries what does not change: types, shapes, mass, diameter, moments of

@@ -29,8 +29,8 @@
 #include "runtime/run.hpp"
 #include "runtime/scene.hpp"
 #include "runtime/signals.hpp"
-#include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
+#include "runtime/system.hpp"
 
 namespace {
 
@@ -96,6 +96,21 @@ void add_execution_options(CLI::App *cmd, ExecutionArgs &e) {
   cmd->add_option("--balance-interval", e.options.parallel.balance.interval,
                   "steps between load comparisons (default 1000)")
       ->check(positive("--balance-interval"));
+  cmd->add_option("--balance-threshold", e.options.parallel.balance.threshold,
+                  "move the cuts when the busiest rank's load is this far above the mean "
+                  "(relative; default 0.05)")
+      ->check([](const std::string &value) {
+        std::size_t used = 0;
+        double x = 0.0;
+        try {
+          x = std::stod(value, &used);
+        } catch (const std::exception &) {
+          used = 0;
+        }
+        if (used != value.size() || used == 0 || !(x >= 0.0 && x < 1e6))
+          return "--balance-threshold must be a number from 0 up, got '" + value + "'";
+        return std::string();
+      });
 }
 
 // `hardrod run SCENE`.

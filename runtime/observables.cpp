@@ -9,7 +9,7 @@
 #include <numeric>
 
 #include "kernels/thermostat.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 
@@ -30,7 +30,7 @@ AxisMoments moments_from(const std::vector<ExactSum> &sums, long long n) {
 
 }  // namespace
 
-IntervalTotals Simulation::pending_interval() {
+IntervalTotals System::pending_interval() {
   IntervalTotals t = interval_;
   if (comm_.size() == 1) return t;
   const auto sums = comm_.sum("checkpoint", {t.virial, t.solver_energy_change});
@@ -40,18 +40,18 @@ IntervalTotals Simulation::pending_interval() {
   return t;
 }
 
-void Simulation::restore_interval(const IntervalTotals &totals) {
+void System::restore_interval(const IntervalTotals &totals) {
   interval_ = comm_.is_root() ? totals : IntervalTotals{};
   interval_.steps = totals.steps;  // every rank counts every step
 }
 
-IntervalTotals Simulation::take_interval() {
+IntervalTotals System::take_interval() {
   IntervalTotals out = interval_;
   interval_ = IntervalTotals{};
   return out;
 }
 
-double Simulation::kinetic_energy() {
+double System::kinetic_energy() {
   const KineticEnergy local = hardrod::kinetic_energy(particles_, owned_, scene_.shape);
   const auto sums = comm_.sum("kinetic_energy", {local.translational, local.rotational});
   ExactSum total = sums[0];
@@ -59,7 +59,7 @@ double Simulation::kinetic_energy() {
   return total.value();
 }
 
-Observation Simulation::observe() {
+Observation System::observe() {
   Observation o;
   o.step = step_;
   const IntervalTotals t = take_interval();
@@ -83,7 +83,7 @@ Observation Simulation::observe() {
   return o;
 }
 
-void Simulation::sum_counts_over_ranks(IntervalTotals &t, const char *name) {
+void System::sum_counts_over_ranks(IntervalTotals &t, const char *name) {
   if (comm_.size() == 1) return;
   for (long long *v : {&t.collisions, &t.narrow_phase_tests, &t.contacts, &t.multi_contact_bodies,
                        &t.clusters, &t.solver_unconverged})
@@ -93,13 +93,13 @@ void Simulation::sum_counts_over_ranks(IntervalTotals &t, const char *name) {
   t.solver_iterations_max = static_cast<long long>(mx[1]);
 }
 
-OrderParameter Simulation::order() {
+OrderParameter System::order() {
   const AxisMoments m = axis_moments(particles_, owned_);
   return order_parameter(
       moments_from(comm_.sum("observe", {m.xx, m.xy, m.xz, m.yy, m.yz, m.zz}), scene_.n));
 }
 
-FourierOrderTensor Simulation::fourier_order(int kmax) {
+FourierOrderTensor System::fourier_order(int kmax) {
   // Owned bodies in id order: the sums then round the same way whatever order the pair-list
   // builds left them in, so a resumed run accumulates the same bits as an uninterrupted one.
   Particles sorted = particles_;
@@ -136,7 +136,7 @@ FourierOrderTensor Simulation::fourier_order(int kmax) {
   return q;
 }
 
-AngularCounts Simulation::angular_distribution(const Vec3 &director, int bins) {
+AngularCounts System::angular_distribution(const Vec3 &director, int bins) {
   AngularCounts local = angular_counts(particles_, owned_, director, bins);
   if (comm_.size() == 1) return local;
   AngularCounts global = local;

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "runtime/scene.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 

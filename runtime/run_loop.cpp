@@ -23,7 +23,7 @@ namespace {
 
 // Steps run in bursts up to the next one after which something reads the state (a frame,
 // a Fourier sample, a sample, a checkpoint, a log line), at most kBurst long so that a
-// signal is seen promptly; Simulation::advance fuses the half steps in between.
+// signal is seen promptly; System::advance runs the steps in between in one call.
 constexpr long long kBurst = 64;
 
 // Steps from `now` to the next step s with (s - origin) a multiple of `interval`, either side
@@ -46,8 +46,8 @@ RunLoop::RunLoop(const Scene &scene, const RunOptions &options, const Checkpoint
       options_(options),
       setup_start_(Clock::now()),
       dir_(options.output_dir.empty() ? scene.output_dir : options.output_dir),
-      sim_(from ? std::make_unique<Simulation>(scene, from->bodies, options.parallel, from->step)
-                : std::make_unique<Simulation>(scene, options.parallel)) {
+      sim_(from ? std::make_unique<System>(scene, from->bodies, options.parallel, from->step)
+                : std::make_unique<System>(scene, options.parallel)) {
   Communicator &comm = sim_->comm();
   const bool root = comm.is_root();
   st_.angular.counts.assign(kAngularBins, 0);
@@ -116,7 +116,7 @@ nlohmann::json RunLoop::run() {
 // Equilibration and production as one sequence of bursts of steps; after each burst
 // whatever is due at the step it ended on, in this order.
 void RunLoop::step_to_target() {
-  Simulation &sim = *sim_;
+  System &sim = *sim_;
   while (sim.current_step() < total_steps_) {
     sim.request_stop(stop_signal() != 0);  // agreed on in the next step's reduction
     sim.advance(next_burst());
@@ -170,7 +170,7 @@ void RunLoop::sample_if_due(long long step) {
 // a full production interval's S, P* and Z into the block-averaged series; every non-empty
 // interval into the time series.
 void RunLoop::take_sample(bool production) {
-  Simulation &sim = *sim_;
+  System &sim = *sim_;
   ScopedRegion r(sim.timers(), Region::kObserve);
   const Observation o = sim.observe();  // collective: the same numbers on every rank
   const IntervalTotals &t = o.totals;
@@ -235,7 +235,7 @@ void RunLoop::write_frame() {
 // Collective: the bodies in id order and every accumulator, atomically to dir/checkpoint.h5.
 void RunLoop::write_checkpoint() {
   const double wall_now = seconds_since_start();
-  Simulation &sim = *sim_;
+  System &sim = *sim_;
   Communicator &comm = sim.comm();
   ScopedRegion r(sim.timers(), Region::kOutput);
   sim.report_pending_problems();  // never checkpoint a state that already broke
@@ -291,7 +291,7 @@ void RunLoop::print_progress(bool final_line) {
 // The final frame, summary.json (and frank.json, angular.json), the report; then the
 // exception that says how the run ended, if it did not complete.
 nlohmann::json RunLoop::finish() {
-  Simulation &sim = *sim_;
+  System &sim = *sim_;
   // The final state, also after a physics failure (for a post-mortem); not after a failed
   // write (the disk is full).
   try {

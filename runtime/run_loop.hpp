@@ -1,7 +1,7 @@
 // The run loop: one segment of a run (a fresh start, or a resume from a checkpoint) as the
 // protocol reads: equilibrate, then produce; sample every sample_interval steps, write frames
 // and Fourier samples, checkpoint on schedule, at the end and on a stop signal; then the
-// summary and the report. Collective over all MPI ranks. The step itself is Simulation's;
+// summary and the report. Collective over all MPI ranks. The step itself is the System's;
 // what is accumulated is run_state.hpp's, the files run_files.hpp's, the summary and the
 // printed lines run_report.hpp's.
 #pragma once
@@ -21,7 +21,7 @@
 #include "runtime/run_report.hpp"
 #include "runtime/run_state.hpp"
 #include "runtime/scene.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 
@@ -69,7 +69,7 @@ class RunLoop {
   const RunOptions options_;
   const Clock::time_point setup_start_;  // the initial configuration's cost counts too
   const std::filesystem::path dir_;
-  std::unique_ptr<Simulation> sim_;
+  std::unique_ptr<System> sim_;
   RunState st_;
   std::unique_ptr<FrankAccumulator> frank_;  // rank 0, scenes with frank = true
   long long first_step_ = 0;

@@ -12,6 +12,7 @@
 #include "perf/region_timer.hpp"
 #include "perf/topology.hpp"
 #include "runtime/provenance.hpp"
+#include "runtime/step_method.hpp"
 
 namespace hardrod {
 
@@ -49,8 +50,8 @@ Placement place_threads(Communicator &comm, bool bind) {
   return p;
 }
 
-void print_run_header(const Scene &scene, Simulation &sim, const fs::path &dir,
-                      const Checkpoint *from, const Placement &placement) {
+void print_run_header(const Scene &scene, System &sim, const fs::path &dir, const Checkpoint *from,
+                      const Placement &placement) {
   fmt::print(
       "hardrod: {} (L/D = {:g}), N = {}, rho* = {:.4f}, eta = {:.4f}, box {:.4f} x "
       "{:.4f} x {:.4f}\n",
@@ -86,7 +87,7 @@ namespace {
 
 // Energy drift: relative kinetic-energy change per tau that the thermostat had to undo,
 // or, with the thermostat off, the change over the whole run (collective then).
-double energy_drift(const Scene &scene, Simulation &sim, const RunState &st) {
+double energy_drift(const Scene &scene, System &sim, const RunState &st) {
   const ThermostatRecord &thermostat = sim.thermostat_record();
   const double simulated = sim.time();
   if (thermostat.applications > 0)
@@ -97,7 +98,7 @@ double energy_drift(const Scene &scene, Simulation &sim, const RunState &st) {
 }
 
 // Region timers: rank 0's, and over all ranks the slowest and the mean (load balance).
-void add_timers(nlohmann::json &summary, Simulation &sim) {
+void add_timers(nlohmann::json &summary, System &sim) {
   Communicator &comm = sim.comm();
   const auto nregions = static_cast<std::size_t>(Region::kCount);
   std::vector<double> mine(nregions);
@@ -148,7 +149,7 @@ nlohmann::json counters_json(const HardwareCounters &counters) {
   return hw;
 }
 
-nlohmann::json balance_json(Simulation &sim) {
+nlohmann::json balance_json(System &sim) {
   const BalanceRecord &b = sim.balance_record();
   return {{"mode", balance_mode_name(sim.balance_options().mode)},
           {"interval", sim.balance_options().interval},
@@ -164,64 +165,8 @@ nlohmann::json balance_json(Simulation &sim) {
           {"cuts", sim.domain().cuts()}};
 }
 
-// Collective: the clusters that spanned ranks, summed over ranks.
-nlohmann::json spanning_json(Simulation &sim) {
-  Communicator &comm = sim.comm();
-  const auto &s = sim.spanning_record();
-  return {{"exchanges", comm.sum("summary", s.exchanges)},
-          {"resolved", comm.sum("summary", s.resolved)},
-          {"multi_contact", comm.sum("summary", s.multi_contact)},
-          {"put_together", comm.sum("summary", s.put_together)},
-          {"from_results", comm.sum("summary", s.from_results)}};
-}
-
-// The exact method's work since this process started, summed over ranks (the largest cluster:
-// the largest on any rank): totals and per step. Collisions and clusters are counted once; the
-// work (events, searches) of a cluster across ranks is counted by every rank that solved it.
-nlohmann::json exact_json(Simulation &sim) {
-  Communicator &comm = sim.comm();
-  const ExactRecord &mine = sim.exact_record();
-  ExactRecord r = mine;
-  ExactStats &t = r.totals;
-  for (long long *v :
-       {&t.candidates, &t.apart, &t.clusters, &t.collisions, &t.events, &t.searches,
-        &t.repredictions, &t.root_iterations, &t.unconverged, &t.regrown, &t.fallbacks, &t.grazes,
-        &t.queued, &t.extra_pairs, &t.spares, &t.kept_apart})
-    *v = comm.sum("summary", *v);
-  t.largest_cluster = static_cast<long long>(
-      comm.max("summary", {static_cast<double>(mine.totals.largest_cluster)})[0]);
-  const double steps = r.steps > 0 ? static_cast<double>(r.steps) : 1.0;
-  const auto per_step = [&](long long v) { return static_cast<double>(v) / steps; };
-  return {{"steps", r.steps},
-          {"collisions", t.collisions},
-          {"events", t.events},
-          {"searches", t.searches},
-          {"repredictions", t.repredictions},
-          {"root_iterations", t.root_iterations},
-          {"unconverged_searches", t.unconverged},
-          {"candidates", t.candidates},
-          {"apart", t.apart},
-          {"clusters", t.clusters},
-          {"largest_cluster", t.largest_cluster},
-          {"regrown", t.regrown},
-          {"fallbacks", t.fallbacks},
-          {"grazes", t.grazes},
-          {"queued_steps", t.queued},
-          {"extra_pairs", t.extra_pairs},
-          {"spare_pairs", t.spares},
-          {"kept_apart", t.kept_apart},
-          {"rebuilt_in_step", r.rebuilt_in_step},
-          {"list_extensions", comm.sum("summary", sim.neighbor_list().extensions)},
-          {"collisions_per_step", per_step(t.collisions)},
-          {"events_per_step", per_step(t.events)},
-          {"repredictions_per_step", per_step(t.repredictions)},
-          {"root_iterations_per_step", per_step(t.root_iterations)},
-          {"root_iterations_per_search",
-           t.searches > 0 ? static_cast<double>(t.root_iterations) / t.searches : 0.0}};
-}
-
 // The system and the run's length.
-nlohmann::json scene_json(const Scene &scene, const Simulation &sim, long long steps_done,
+nlohmann::json scene_json(const Scene &scene, const System &sim, long long steps_done,
                           double production_time) {
   return {{"shape", scene.shape_name},
           {"n", scene.n},
@@ -240,7 +185,7 @@ nlohmann::json scene_json(const Scene &scene, const Simulation &sim, long long s
 }
 
 // The observables, and the work of the steps that gave them.
-nlohmann::json results_json(const Scene &scene, Simulation &sim, const RunState &st,
+nlohmann::json results_json(const Scene &scene, System &sim, const RunState &st,
                             long long steps_done, double production_time, double drift) {
   const double n = static_cast<double>(scene.n);
   const auto per_step = [&](long long count) {
@@ -270,9 +215,8 @@ nlohmann::json results_json(const Scene &scene, Simulation &sim, const RunState 
   };
 }
 
-// What the run cost and where it ran. balance_json and spanning_json reduce over ranks: every
-// rank calls this.
-nlohmann::json cost_json(const Scene &scene, Simulation &sim, const RunState &st,
+// What the run cost and where it ran.
+nlohmann::json cost_json(const Scene &scene, System &sim, const RunState &st,
                          const RunOutcome &outcome, const Placement &placement,
                          long long steps_done) {
   const double particle_steps =
@@ -290,7 +234,6 @@ nlohmann::json cost_json(const Scene &scene, Simulation &sim, const RunState &st
       {"ranks", sim.comm().size()},
       {"grid", sim.domain().grid()},
       {"balance", balance_json(sim)},
-      {"spanning_clusters", spanning_json(sim)},
       {"threads", omp_get_max_threads()},
       {"topology", placement.topology},
       {"binding", placement.binding},
@@ -301,9 +244,8 @@ nlohmann::json cost_json(const Scene &scene, Simulation &sim, const RunState &st
 }  // namespace
 
 // The parts that reduce over ranks come in the same order on every rank: the energy drift, the
-// balance and spanning clusters, the checksum, provenance, the timers, the watched share and
-// the traffic.
-nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &st,
+// checksum, provenance, the timers, the watched share, the method's part and the traffic.
+nlohmann::json run_summary(const Scene &scene, System &sim, const RunState &st,
                            const RunOutcome &outcome, const Placement &placement,
                            const HardwareCounters &counters) {
   Communicator &comm = sim.comm();
@@ -328,7 +270,7 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
     summary["detect_watched_share"] = all > 0 ? static_cast<double>(watched) / all : 0.0;
     summary["detect_near_share"] = all > 0 ? static_cast<double>(near) / all : 0.0;
   }
-  if (scene.method == kExact) summary["exact"] = exact_json(sim);
+  sim.method().summarize(comm, summary);
   summary["hardware_counters"] = counters_json(counters);
   summary["communication_per_rank"] = traffic_json(comm, steps_done - outcome.first_step);
   if (!outcome.failure.empty()) summary["error"] = outcome.failure;
@@ -339,7 +281,8 @@ nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &
 namespace {
 
 // The physics: what the run measured, with errors; a failed run says so first.
-void print_results(const RunState &st, const nlohmann::json &summary, const fs::path &dir) {
+void print_results(const StepMethod &method, const RunState &st, const nlohmann::json &summary,
+                   const fs::path &dir) {
   if (summary["status"] == "failed")
     fmt::print("\nFAILED: {}\n", summary.value("error", std::string("(no message)")));
   auto pm = [](const Estimate &e) {
@@ -360,22 +303,7 @@ void print_results(const RunState &st, const nlohmann::json &summary, const fs::
              summary["equilibrated"].get<bool>()
                  ? "yes"
                  : "not sure (first and last third of production differ)");
-  if (summary.contains("exact")) {
-    const nlohmann::json &x = summary["exact"];
-    const long long queued = x["queued_steps"].get<long long>();
-    fmt::print(
-        "  exact collisions         {:.4g} per step; {:.4g} searches ({:.3g} gap evaluations "
-        "each), {:.4g} re-predictions per step ({:.4g} more kept apart by their proofs); {}; "
-        "fallbacks {}\n",
-        x["collisions_per_step"].get<double>(),
-        x["searches"].get<double>() / std::max(1.0, x["steps"].get<double>()),
-        x["root_iterations_per_search"].get<double>(), x["repredictions_per_step"].get<double>(),
-        x["kept_apart"].get<double>() / std::max(1.0, x["steps"].get<double>()),
-        queued == x["steps"].get<long long>()
-            ? std::string("events in one queue")
-            : fmt::format("largest cluster {}", x["largest_cluster"].get<long long>()),
-        x["fallbacks"].get<long long>());
-  }
+  method.print_results(summary);
   fmt::print("  speed                    {:.1f} ns per particle-step, {:.3g} particle-steps/s\n",
              summary["ns_per_particle_step"].get<double>(),
              summary["particle_steps_per_second"].get<double>());
@@ -384,7 +312,7 @@ void print_results(const RunState &st, const nlohmann::json &summary, const fs::
 }
 
 // The parallel bookkeeping of a run on several ranks: load balance, clusters across ranks.
-void print_parallel(Simulation &sim, const nlohmann::json &summary) {
+void print_parallel(System &sim, const nlohmann::json &summary) {
   const BalanceRecord &b = sim.balance_record();
   if (sim.balance_options().mode == BalanceMode::kOff)
     fmt::print("load balance: off (--balance off)\n");
@@ -395,21 +323,15 @@ void print_parallel(Simulation &sim, const nlohmann::json &summary) {
         "last\n",
         balance_mode_name(sim.balance_options().mode), b.checks, b.shifts, b.forced_rebuilds,
         100 * b.first_imbalance, 100 * b.last_imbalance);
-  const auto &sc = summary["spanning_clusters"];
-  fmt::print(
-      "clusters across ranks: {} resolved from merged contact records ({} with several "
-      "contacts, {} needing another rank's contact), {} bodies set by the results "
-      "exchange (summed over ranks)\n",
-      sc["resolved"].get<long long>(), sc["multi_contact"].get<long long>(),
-      sc["put_together"].get<long long>(), sc["from_results"].get<long long>());
+  sim.method().print_parallel(summary);
 }
 
 }  // namespace
 
 // The physics first (what the user ran for), then where the time went.
-void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json &summary,
+void print_run_report(System &sim, const RunState &st, const nlohmann::json &summary,
                       const HardwareCounters &counters, const fs::path &dir) {
-  print_results(st, summary, dir);
+  print_results(sim.method(), st, summary, dir);
   const double particle_steps = static_cast<double>(summary["n"].get<long long>()) *
                                 static_cast<double>(summary["steps_done"].get<long long>() -
                                                     summary["first_step"].get<long long>());

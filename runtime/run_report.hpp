@@ -15,7 +15,7 @@
 #include "runtime/checkpoint.hpp"
 #include "runtime/run_state.hpp"
 #include "runtime/scene.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 
@@ -36,7 +36,7 @@ struct Placement {
 Placement place_threads(Communicator &comm, bool bind);
 
 // The lines printed before the first step (rank 0, unless quiet).
-void print_run_header(const Scene &scene, Simulation &sim, const std::filesystem::path &dir,
+void print_run_header(const Scene &scene, System &sim, const std::filesystem::path &dir,
                       const Checkpoint *from, const Placement &placement);
 
 // One progress line: step, phase, time, speed, ETA, the last sample's S and the running P*.
@@ -60,14 +60,14 @@ struct RunOutcome {
 
 // Collective: summary.json's contents (the same on every rank, except the Frank sample count
 // the caller adds on rank 0).
-nlohmann::json run_summary(const Scene &scene, Simulation &sim, const RunState &st,
+nlohmann::json run_summary(const Scene &scene, System &sim, const RunState &st,
                            const RunOutcome &outcome, const Placement &placement,
                            const HardwareCounters &counters);
 
 // The report printed at the end (rank 0, unless quiet): the results with errors (led by
 // FAILED and the reason for a failed run), then the timers, the counters and the parallel
 // bookkeeping.
-void print_run_report(Simulation &sim, const RunState &st, const nlohmann::json &summary,
+void print_run_report(System &sim, const RunState &st, const nlohmann::json &summary,
                       const HardwareCounters &counters, const std::filesystem::path &dir);
 
 }  // namespace hardrod

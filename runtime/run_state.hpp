@@ -11,7 +11,7 @@
 
 #include "kernels/exact_sum.hpp"
 #include "kernels/order_tensor.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 

@@ -30,7 +30,7 @@ enum class Configuration { kLattice, kFile, kIsotropic };
 
 // How a step times its collisions (run.method, docs/physics.md section 3): at the step's
 // midpoint once bodies overlap, the paper's method; or at their exact times within the step
-// (kernels/exact_collisions.hpp).
+// (kernels/exact/exact_collisions.hpp).
 enum Method : int { kMidpoint = 0, kExact = 1 };
 
 struct Scene {

@@ -4,8 +4,10 @@
 #include <cmath>
 #include <string>
 
+#include "runtime/exact/exact_step.hpp"
 #include "runtime/scene.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/start.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod::testing {
 
@@ -44,6 +46,14 @@ inline Scene hard_spheres(int per_side, double eta, double dt = 1e-4) {
   s.thermostat_interval = 0;
   s.sample_interval = 100;
   return s;
+}
+
+// The exact method's record of a System that runs it.
+inline const ExactRecord &exact_record(const System &sys) {
+  return dynamic_cast<const ExactStep &>(sys.method()).record();
+}
+inline const ListExtension &list_extension(const System &sys) {
+  return dynamic_cast<const ExactStep &>(sys.method()).extension();
 }
 
 // What a start from `scene` fails with (initial_bodies' SceneError), "" if it starts.

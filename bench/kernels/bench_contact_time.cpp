@@ -1,4 +1,4 @@
-// Micro-benchmark of the exact contact time (first_contact, kernels/contact_time.hpp).
+// Micro-benchmark of the exact contact time (first_contact, kernels/exact/contact_time.hpp).
 // Physics: the nematic's collisions, L/D = 5 rods (h = 2.5, axes ~17 degrees about z, head or
 // tail at random), |v| ~ 1.7 (kT = m = 1), angular velocities ~ 1 across the axis; pairs whose
 // gap at the start of the step is 0 .. 0.05 D. Batches of pairs that do collide within the step
@@ -15,7 +15,7 @@
 #include <random>
 #include <vector>
 
-#include "kernels/contact_time.hpp"
+#include "kernels/exact/contact_time.hpp"
 
 namespace hardrod {
 namespace {

@@ -1,14 +1,13 @@
-// Whole time steps of the exact method (run.method = "exact", kernels/exact_collisions.hpp) on
-// one thread unless asked: the everyday nematic (N = 2304, L/D = 5, rho* = 0.5) and hard
-// spheres at packing fraction 0.45 (N = 32768, the system of issue 20's event-driven
-// reference: 23.5 us of CPU per particle per tau), each from a state relaxed by the method
-// itself, at several dt and skins. Reports ns per particle-step, microseconds of CPU per
-// particle per tau (the figure to set against event-driven MD), the phases, and the method's
-// work per step (collisions, searches, gap evaluations per search, largest cluster).
-// Relaxation before measuring, by the method itself at dt 2e-3: the nematic 40 tau (from the
-// lattice's S = 0.93 to the equilibrium's ~0.77; its step costs ~1.1x more there than 1 tau
-// from the lattice), the spheres 4 tau (the fcc lattice has melted). HARDROD_BENCH_RELAX_TAU
-// sets both.
+// Whole time steps of the exact method (run.method = "exact", kernels/exact/exact_collisions.hpp)
+// on one thread unless asked: the everyday nematic (N = 2304, L/D = 5, rho* = 0.5) and hard spheres
+// at packing fraction 0.45 (N = 32768, the system of issue 20's event-driven reference: 23.5 us of
+// CPU per particle per tau), each from a state relaxed by the method itself, at several dt and
+// skins. Reports ns per particle-step, microseconds of CPU per particle per tau (the figure to set
+// against event-driven MD), the phases, and the method's work per step (collisions, searches, gap
+// evaluations per search, largest cluster). Relaxation before measuring, by the method itself at dt
+// 2e-3: the nematic 40 tau (from the lattice's S = 0.93 to the equilibrium's ~0.77; its step costs
+// ~1.1x more there than 1 tau from the lattice), the spheres 4 tau (the fcc lattice has melted).
+// HARDROD_BENCH_RELAX_TAU sets both.
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
@@ -17,12 +16,13 @@
 #include <map>
 #include <memory>
 
-#include "runtime/simulation.hpp"
+#include "runtime/exact/exact_step.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 namespace {
 
-enum System { kNematic = 0, kSpheres = 1 };
+enum Bench { kNematic = 0, kSpheres = 1 };
 
 Scene scene_of(int system, double dt, double skin) {
   Scene s;
@@ -59,7 +59,7 @@ const Particles &relaxed_bodies(int system) {
     constexpr double kRelaxDt = 2e-3;
     const int threads = omp_get_max_threads();
     omp_set_num_threads(omp_get_num_procs());  // the same bits on any threads
-    Simulation sim(scene_of(system, kRelaxDt, system == kNematic ? 1.0 : 0.3));
+    System sim(scene_of(system, kRelaxDt, system == kNematic ? 1.0 : 0.3));
     sim.advance(static_cast<long long>(std::llround(tau / kRelaxDt)));
     omp_set_num_threads(threads);
     slot = std::make_unique<Particles>(sim.gather_bodies());
@@ -75,11 +75,11 @@ void BM_ExactStep(benchmark::State &state) {
   const double skin = 0.1 * static_cast<double>(state.range(2));
   const Particles &start = relaxed_bodies(system);
   omp_set_num_threads(static_cast<int>(state.range(3)));
-  Simulation sim(scene_of(system, dt, skin), start);
+  System sim(scene_of(system, dt, skin), start);
   sim.advance(20);  // the first list, outside the timing
   sim.take_interval();
   const RegionTimers before = sim.timers();
-  const ExactRecord record_before = sim.exact_record();
+  const ExactRecord record_before = dynamic_cast<const ExactStep &>(sim.method()).record();
   long long steps = 0;
   constexpr long long kBurst = 16;
   for (auto _ : state) {
@@ -96,7 +96,8 @@ void BM_ExactStep(benchmark::State &state) {
       particle_steps * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["us_per_particle_tau"] = benchmark::Counter(
       particle_steps * 1e-6 * dt, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  const ExactStats &a = record_before.totals, &b = sim.exact_record().totals;
+  const ExactStats &a = record_before.totals,
+                   &b = dynamic_cast<const ExactStep &>(sim.method()).record().totals;
   const auto per_step = [&](long long after, long long before_) {
     return static_cast<double>(after - before_) / static_cast<double>(steps);
   };

@@ -16,7 +16,8 @@
 #include "kernels/contact_detection.hpp"
 #include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/start.hpp"
+#include "runtime/system.hpp"
 
 namespace hardrod {
 namespace {
@@ -43,7 +44,7 @@ const Particles &relaxed_bodies(int halvings) {
     const char *env = std::getenv("HARDROD_BENCH_RELAX_TAU");
     const double tau = env ? std::atof(env) : 1.0;
     omp_set_num_threads(1);
-    Simulation sim(nematic_scene(halvings, 1e-4));
+    System sim(nematic_scene(halvings, 1e-4));
     const auto steps = static_cast<long long>(std::llround(tau / 1e-4));
     for (long long k = 0; k < steps; ++k) sim.step();
     slot = std::make_unique<Particles>(sim.particles());
@@ -72,7 +73,7 @@ void BM_TimeStep(benchmark::State &state) {
   const int halvings = static_cast<int>(state.range(0));
   const double dt = 1e-6 * static_cast<double>(state.range(1));
   omp_set_num_threads(static_cast<int>(state.range(2)));
-  Simulation sim(nematic_scene(halvings, dt), relaxed_bodies(halvings));
+  System sim(nematic_scene(halvings, dt), relaxed_bodies(halvings));
   for (int k = 0; k < 20; ++k) sim.step();  // build the neighbour list outside the timing
   sim.take_interval();
   const RegionTimers before = sim.timers();
@@ -154,7 +155,7 @@ BENCHMARK(BM_DetectOnly)
     ->Unit(benchmark::kMicrosecond);
 
 // The floor of a run of steps: the second half of one step and the first half of the next
-// in one pass (Simulation::advance between samples).
+// in one pass (System::advance between samples).
 void BM_IntegrateFused(benchmark::State &state) {
   const int halvings = static_cast<int>(state.range(0));
   omp_set_num_threads(static_cast<int>(state.range(1)));

@@ -14,7 +14,7 @@
 
 #include "kernels/cell_list.hpp"
 #include "kernels/contact_detection.hpp"
-#include "kernels/contact_time.hpp"
+#include "kernels/exact/contact_time.hpp"
 #include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/segment_geometry.hpp"

@@ -27,6 +27,10 @@ def main():
     ap.add_argument("--set", action="append", default=[])
     ap.add_argument("--grid", help="MPI process grid, e.g. 3x3x3")
     ap.add_argument("--balance", help="load balancing mode (default: the program's)")
+    ap.add_argument("--balance-interval", help="steps between balance checks (default: the program's)")
+    ap.add_argument("--balance-threshold", help="imbalance that moves the cuts (default: the program's)")
+    ap.add_argument("--min-shifts", type=int, default=0,
+                    help="least moves of the cuts on more than one rank (the balancer must act)")
     ap.add_argument("--min-from-results", type=int, default=0,
                     help="least bodies that must have taken their velocities from the results "
                          "exchange (the run must exercise it)")
@@ -54,6 +58,10 @@ def main():
         cmd += ["--grid", args.grid]
     if args.balance:
         cmd += ["--balance", args.balance]
+    if args.balance_interval:
+        cmd += ["--balance-interval", args.balance_interval]
+    if args.balance_threshold:
+        cmd += ["--balance-threshold", args.balance_threshold]
     for s in args.set:
         cmd += ["--set", s]
     env = mpi.environment()
@@ -101,6 +109,10 @@ def main():
             print("FAILED: too few collisions for a meaningful comparison")
             return 1
         print("same state as 1 x 1")
+    if args.ranks > 1 and summary["balance"]["shifts"] < args.min_shifts:
+        print(f"FAILED: the cuts moved {summary['balance']['shifts']} times, at least "
+              f"{args.min_shifts} asked")
+        return 1
     spanning = summary["spanning_clusters"]
     print(f"clusters across ranks: {spanning}")
     if (args.results_exchange and spanning["from_results"] == 0) or \

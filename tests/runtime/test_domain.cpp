@@ -126,6 +126,16 @@ TEST(Balance, LimitsHoldAndTheStepIsTheLargestThatKeepsThem) {
   EXPECT_NEAR(wide[1], 6.0, 1e-12);
 }
 
+// A slab that an earlier step stopped at the limit (its width rounded a little below it) still
+// moves where the loads ask for it to grow; one that would shrink further stays.
+TEST(Balance, ASlabAtTheLimitMovesAgain) {
+  const std::vector<double> cuts{0.0, std::nextafter(6.0, 0.0), 20.0};
+  const auto grown = balanced_cuts(cuts, {1.0, 100.0}, 6.0);
+  EXPECT_GT(grown[1], 6.0);
+  const auto kept = balanced_cuts(cuts, {100.0, 1.0}, 6.0);
+  EXPECT_EQ(kept, cuts);
+}
+
 TEST(Balance, BadLoadsOrCutsChangeNothing) {
   const std::vector<double> cuts{0.0, 10.0, 20.0};
   EXPECT_EQ(balanced_cuts(cuts, {NAN, 1.0}, 1.0), cuts);

@@ -11,8 +11,8 @@
 #include "runtime/export.hpp"
 #include "runtime/gsd_reader.hpp"
 #include "runtime/hoomd_gsd.hpp"
-#include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
+#include "runtime/system.hpp"
 #include "tests/test_scenes.hpp"
 
 namespace hardrod {
@@ -102,7 +102,7 @@ struct GsdFiles : ::testing::Test {
 
   // Two frames of a short run of the small nematic: the lattice and 300 steps later.
   std::string write_run(const Scene &scene) {
-    Simulation sim(scene);
+    System sim(scene);
     const std::string path = (dir / "run.h5").string();
     TrajectoryWriter w(path, scene);
     w.append(sim.gather_bodies(), 0, 0.0);
@@ -182,7 +182,7 @@ TEST_F(GsdFiles, RunStartsFromAnExportedFrameAsFromTheH5mdFrame) {
   // Frame 0 is the lattice with its velocities; a run starts from it and goes on.
   scene.init_file = gsd;
   scene.init_frame = 0;
-  Simulation sim(scene);
+  System sim(scene);
   for (int k = 0; k < 20; ++k) sim.step();
   EXPECT_EQ(sim.current_step(), 20);
 }
@@ -196,8 +196,7 @@ TEST_F(GsdFiles, StartRefusesAFrameThatDoesNotFitTheSceneNamingFileAndValue) {
   scene.init_file = gsd;
   Scene more = scene;
   more.n = 300;
-  EXPECT_NE(testing::start_error(more).find("holds 288 particles, system.n = 300"),
-            std::string::npos)
+  EXPECT_NE(testing::start_error(more).find("holds 288 bodies, system.n = 300"), std::string::npos)
       << testing::start_error(more);
   Scene wider = scene;
   wider.box.length.x *= 1.0 + 1e-6;

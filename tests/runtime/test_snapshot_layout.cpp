@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <vector>
 
-#include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
+#include "runtime/system.hpp"
 #include "tests/test_scenes.hpp"
 
 namespace hardrod {
@@ -33,7 +33,7 @@ struct SnapshotLayout : ::testing::Test {
   // Two frames, the second after 300 steps with two centres moved whole boxes away, as
   // unwrapped positions are after a long run.
   std::string write_run() {
-    Simulation sim(scene);
+    System sim(scene);
     const std::string path = (dir / "run.h5").string();
     TrajectoryWriter w(path, scene);
     w.append(sim.gather_bodies(), 0, 0.0);

@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "runtime/scene.hpp"
-#include "runtime/simulation.hpp"
 #include "runtime/snapshot.hpp"
+#include "runtime/system.hpp"
 #include "tests/test_scenes.hpp"
 
 namespace hardrod {
@@ -32,7 +32,7 @@ struct SnapshotStart : ::testing::Test {
   // Two frames of a short run of the small nematic: the lattice and 200 steps later.
   std::string write_run(Particles *last) {
     Scene scene = testing::small_nematic(1e-3);
-    Simulation sim(scene);
+    System sim(scene);
     const std::string path = (dir / "run.h5").string();
     TrajectoryWriter w(path, scene);
     w.append(sim.gather_bodies(), 0, 0.0);
@@ -73,7 +73,7 @@ TEST_F(SnapshotStart, TakesPositionsAndAxesOfTheFrameBitForBit) {
   EXPECT_GT(ke, 0.0);
   // Frame 0 is the lattice; a run can start from it and goes on.
   scene.init_frame = 0;
-  Simulation sim(scene);
+  System sim(scene);
   for (int k = 0; k < 20; ++k) sim.step();
   EXPECT_EQ(sim.current_step(), 20);
   // The scene names the file and the frame in canonical form.
@@ -161,7 +161,7 @@ TEST_F(SnapshotStart, OverlappingFrameIsRefusedAtTheStart) {
   scene.init_frame = 0;
   EXPECT_EQ(testing::start_error(scene), "");  // the lattice touches nowhere
   // The same frame with one body moved half a diameter beside another.
-  Particles bodies = Simulation(scene).gather_bodies();
+  Particles bodies = System(scene).gather_bodies();
   bodies.x[7] = bodies.x[3];
   bodies.y[7] = bodies.y[3] + 0.5;
   bodies.z[7] = bodies.z[3];
@@ -203,7 +203,7 @@ TEST(SceneInit, IsotropicStartRunsAndRoundTrips) {
   const Scene scene = parse_scene(text);
   EXPECT_EQ(scene.configuration, Configuration::kIsotropic);
   EXPECT_EQ(parse_scene(scene_to_toml(scene)).configuration, Configuration::kIsotropic);
-  Simulation sim(scene);
+  System sim(scene);
   EXPECT_LT(sim.order().S, 0.15);            // isotropic: ~1/sqrt(n)
   for (int k = 0; k < 100; ++k) sim.step();  // no overlap beyond run.max_overlap
   EXPECT_EQ(sim.current_step(), 100);

@@ -12,6 +12,8 @@ bodies, one about a third and one none. Then:
     cut further than the partner reach, so the bodies migrate in stages;
   - `--balance time` (whatever the machine's timing does) and `--balance off` must end in
     the same state as 1 x 1;
+  - the exact method (run.method = "exact") the same: its cuts follow the bodies under
+    `--balance bodies`, and every mode ends in its own 1 x 1 state;
   - a bad `--balance` or `--balance-interval` value is refused with exit status 1, naming it.
 """
 import json
@@ -61,9 +63,10 @@ def main():
                   "--set", "run.steps=1000", "--set", "run.sample_interval=250"]
         mild = common + ["--set", "init.temperature=100.0", "--balance-interval", "50"]
         hot = common + ["--set", "init.temperature=2500.0", "--balance-interval", "200"]
+        exact = mild + ["--set", "run.method=exact"]
         failures = []
         refs = {}
-        for name, opts in (("mild", mild), ("hot", hot)):
+        for name, opts in (("mild", mild), ("hot", hot), ("exact", exact)):
             refs[name] = run(hardrod, scene, tmp / f"1x1-{name}", 1, opts)
             r = refs[name]
             print(f"1 x 1 {name}: checksum {r['state_checksum']}, collisions {r['collisions']}")
@@ -74,14 +77,16 @@ def main():
         # further than the partner reach in one rebuild, which then moves it in stages,
         # migrating after each, checked by --verify.
         cases = (("mild", "bodies", True, 3), ("hot", "bodies", True, 4),
-                 ("mild", "time", False, 3), ("mild", "off", False, 3))
+                 ("mild", "time", False, 3), ("mild", "off", False, 3),
+                 ("exact", "bodies", True, 3), ("exact", "time", False, 3),
+                 ("exact", "off", False, 3))
         for gas, mode, verify, ranks in cases:
-            opts = mild if gas == "mild" else hot + ["--grid", "4x1x1"]
+            opts = {"mild": mild, "exact": exact}.get(gas, hot + ["--grid", "4x1x1"])
             s = run(hardrod, scene, tmp / f"{ranks}x1-{gas}-{mode}", ranks,
                     opts + ["--balance", mode] + (["--verify"] if verify else []))
             ref = refs[gas]
             b = s["balance"]
-            label = f"{gas} gas, --balance {mode}"
+            label = f"{gas} gas, --balance {mode}" if gas != "exact" else f"mild gas, exact method, --balance {mode}"
             print(f"{ranks} x 1, {label}: grid {s['grid']}, checksum {s['state_checksum']}, "
                   f"collisions {s['collisions']}; {b['checks']} checks, {b['shifts']} shifts "
                   f"({b['forced_rebuilds']} forced, largest {b['largest_shift']:.2f} D, partner "

@@ -20,8 +20,8 @@
 #include <sstream>
 #include <string>
 
-#include "kernels/contact_time.hpp"
-#include "kernels/gap_bound.hpp"
+#include "kernels/exact/contact_time.hpp"
+#include "kernels/exact/gap_bound.hpp"
 
 namespace hardrod {
 namespace {

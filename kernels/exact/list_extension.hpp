@@ -13,7 +13,7 @@
 // D + reach_a + reach_b. The build lists every pair below D + skin (both reaches half the
 // skin), and an extension of body a to reach r lists every pair whose distance at the build
 // was below D + r + reach_b, measured from the centres and axes kept at the build
-// (NeighborList::built) and found through the build's cells around a's (centres then within
+// (ListExtension::built) and found through the build's cells around a's (centres then within
 // L + D + r + the largest reach). A pair's distance shrinks by at most the two bounds, so a
 // pair left out cannot touch while each body's bound is below its reach. The list and its
 // slacks decide only which pairs are measured: what touches, and so the trajectory, is the
@@ -30,6 +30,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "kernels/box.hpp"
 #include "kernels/neighbor_list.hpp"
@@ -38,9 +39,28 @@
 
 namespace hardrod {
 
-// Body b's reach beyond half the skin (0 until an extension).
-inline double extra_reach(const NeighborList &list, std::uint32_t b) {
-  return b < list.extra_reach.size() ? list.extra_reach[b] : 0.0;
+// What the extensions of one list need beyond the list itself: the bodies' centres (and rods'
+// axes) at the build, which an extension measures, and each body's reach beyond half the skin.
+struct ListExtension {
+  struct {
+    std::vector<double> x, y, z, ex, ey, ez;
+  } built;
+  // [0, active), 0 after a build, and the largest.
+  std::vector<double> extra_reach;
+  double largest_extra = 0.0;
+  long long extended = 0;    // extensions since the build
+  long long extensions = 0;  // all (a statistic)
+};
+
+// After a build of `list` over bodies p of which [0, owned) are owned: their centres and axes
+// kept and every extra reach zero where there are no shadows (one rank), else nothing kept (no
+// extension then).
+void start_extension(ListExtension &ext, const NeighborList &list, const Particles &p,
+                     std::size_t owned, const Shape &shape);
+
+// Body b's reach beyond half the skin (0 until an extension, or where none is kept).
+inline double extra_reach(const ListExtension &ext, std::uint32_t b) {
+  return b < ext.extra_reach.size() ? ext.extra_reach[b] : 0.0;
 }
 
 // Extends the reach of every body of [0, list.active) whose motion bound is within `lead` of
@@ -51,7 +71,7 @@ inline double extra_reach(const NeighborList &list, std::uint32_t b) {
 // extensions since its build would be needed, or a body due is a runaway (its step, 2 grow,
 // takes half the skin, or its bound and lead reach twice the skin), which the build's checks
 // take.
-bool extend_neighbor_list(NeighborList &list, const Particles &p, const Box &box,
-                          const Shape &shape, double lead, long long budget);
+bool extend_neighbor_list(NeighborList &list, ListExtension &ext, const Particles &p,
+                          const Box &box, const Shape &shape, double lead, long long budget);
 
 }  // namespace hardrod

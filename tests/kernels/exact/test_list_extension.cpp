@@ -1,4 +1,4 @@
-// A neighbour list extended body by body (kernels/list_extension.hpp), against brute force:
+// A neighbour list extended body by body (kernels/exact/list_extension.hpp), against brute force:
 // after bodies move (each by at most its motion bound) and the ones at or past their reach are
 // extended, every pair the list does not hold was, at the build, at least D + reach_a +
 // reach_b apart, so that none can touch while each bound stays below its reach; each pair is
@@ -14,7 +14,7 @@
 #include <set>
 #include <utility>
 
-#include "kernels/list_extension.hpp"
+#include "kernels/exact/list_extension.hpp"
 #include "kernels/segment_geometry.hpp"
 
 namespace hardrod {
@@ -27,6 +27,7 @@ struct Fluid {
   Box box;
   Particles p;
   NeighborList list;
+  ListExtension ext;
 };
 
 // Random bodies at a fifth of close packing, the list built with skin 0.5.
@@ -48,8 +49,8 @@ Fluid built(double length, std::uint64_t seed) {
     s.p.set_axis(i, (1.0 / norm(e)) * e);
   }
   s.list.skin = 0.5;
-  s.list.keep_build_state = true;
   build_neighbor_list(s.list, s.p, n, s.box, s.shape);
+  start_extension(s.ext, s.list, s.p, n, s.shape);
   return s;
 }
 
@@ -123,8 +124,8 @@ TEST_P(ListExtension, NoPairLeftOutCanTouchWhileEachBoundIsBelowItsReach) {
 
   s.list.near.valid = true;  // near pairs in use (NearPairs): the new ones join them
   s.list.near.index = {0, 2};
-  ASSERT_TRUE(extend_neighbor_list(s.list, s.p, s.box, s.shape, 0.0, 1 << 30));
-  EXPECT_EQ(s.list.extended, static_cast<long long>(past));
+  ASSERT_TRUE(extend_neighbor_list(s.list, s.ext, s.p, s.box, s.shape, 0.0, 1 << 30));
+  EXPECT_EQ(s.ext.extended, static_cast<long long>(past));
   ASSERT_EQ(s.list.near.index.size(), 2 + s.list.pair_count() - built_pairs);
   for (std::size_t k = 2; k < s.list.near.index.size(); ++k)
     EXPECT_EQ(s.list.near.index[k], built_pairs + k - 2);
@@ -132,10 +133,10 @@ TEST_P(ListExtension, NoPairLeftOutCanTouchWhileEachBoundIsBelowItsReach) {
   EXPECT_GT(s.list.pair_count(), built_pairs);
   for (std::uint32_t k = static_cast<std::uint32_t>(built_pairs); k < s.list.pair_count(); ++k)
     EXPECT_EQ(s.list.pairs[k].recheck_at, -std::numeric_limits<float>::infinity()) << "due";
-  const auto reach = [&](std::size_t i) { return half + s.list.extra_reach[i]; };
+  const auto reach = [&](std::size_t i) { return half + s.ext.extra_reach[i]; };
   for (std::size_t i = 0; i < n; ++i) {
     EXPECT_LT(s.p.motion_bound[i], reach(i)) << "body " << i;
-    EXPECT_EQ(s.list.extra_reach[i] > 0.0, !(s.p.motion_bound[i] < half)) << "body " << i;
+    EXPECT_EQ(s.ext.extra_reach[i] > 0.0, !(s.p.motion_bound[i] < half)) << "body " << i;
   }
   // Every pair within D + reach_a + reach_b at the build is listed.
   const auto expect_complete = [&]() {
@@ -159,7 +160,7 @@ TEST_P(ListExtension, NoPairLeftOutCanTouchWhileEachBoundIsBelowItsReach) {
   // A second round: the same bodies moved on, extended again from their new reaches.
   const std::size_t before = s.list.pair_count();
   for (std::size_t i = 0; i < n; ++i) s.p.motion_bound[i] += 0.5 * half;
-  ASSERT_TRUE(extend_neighbor_list(s.list, s.p, s.box, s.shape, 0.0, 1 << 30));
+  ASSERT_TRUE(extend_neighbor_list(s.list, s.ext, s.p, s.box, s.shape, 0.0, 1 << 30));
   EXPECT_GT(s.list.pair_count(), before);
   for (std::size_t i = 0; i < n; ++i) EXPECT_LT(s.p.motion_bound[i], reach(i));
   expect_complete();
@@ -172,42 +173,43 @@ TEST(ListExtensionLimits, PastItsBudgetOrWithShadowsNothingChanges) {
   Fluid s = built(0.0, 3);
   move(s, 4);
   const std::size_t pairs = s.list.pair_count();
-  EXPECT_FALSE(extend_neighbor_list(s.list, s.p, s.box, s.shape, 0.0, 3));
+  EXPECT_FALSE(extend_neighbor_list(s.list, s.ext, s.p, s.box, s.shape, 0.0, 3));
   EXPECT_EQ(s.list.pair_count(), pairs);
-  EXPECT_EQ(s.list.extended, 0);
-  for (const double e : s.list.extra_reach) EXPECT_EQ(e, 0.0);
+  EXPECT_EQ(s.ext.extended, 0);
+  for (const double e : s.ext.extra_reach) EXPECT_EQ(e, 0.0);
 
   // The lead counts: with none of the bounds past half the skin, a lead as large extends
   // every body.
   Fluid t = built(0.0, 5);
-  EXPECT_TRUE(extend_neighbor_list(t.list, t.p, t.box, t.shape, 0.0, 0));  // nothing due
-  EXPECT_EQ(t.list.extended, 0);
-  EXPECT_TRUE(extend_neighbor_list(t.list, t.p, t.box, t.shape, 0.5 * t.list.skin, 1 << 30));
-  EXPECT_EQ(t.list.extended, static_cast<long long>(t.p.size()));
+  EXPECT_TRUE(extend_neighbor_list(t.list, t.ext, t.p, t.box, t.shape, 0.0, 0));  // nothing due
+  EXPECT_EQ(t.ext.extended, 0);
+  EXPECT_TRUE(extend_neighbor_list(t.list, t.ext, t.p, t.box, t.shape, 0.5 * t.list.skin, 1 << 30));
+  EXPECT_EQ(t.ext.extended, static_cast<long long>(t.p.size()));
 
   // A runaway (a bound past twice the skin) or a NaN is left to the build.
   Fluid v = built(0.0, 8);
   v.p.motion_bound[5] = 2.0 * v.list.skin;
-  EXPECT_FALSE(extend_neighbor_list(v.list, v.p, v.box, v.shape, 0.0, 1 << 30));
+  EXPECT_FALSE(extend_neighbor_list(v.list, v.ext, v.p, v.box, v.shape, 0.0, 1 << 30));
   v.p.motion_bound[5] = std::nan("");
-  EXPECT_FALSE(extend_neighbor_list(v.list, v.p, v.box, v.shape, 0.0, 1 << 30));
-  EXPECT_EQ(v.list.extended, 0);
+  EXPECT_FALSE(extend_neighbor_list(v.list, v.ext, v.p, v.box, v.shape, 0.0, 1 << 30));
+  EXPECT_EQ(v.ext.extended, 0);
 
-  // A list that does not keep the build's state (the midpoint method's) is not extended.
+  // A list whose build's state was not kept (the midpoint method's) is not extended.
   Fluid w = built(0.0, 9);
-  w.list.keep_build_state = false;
   build_neighbor_list(w.list, w.p, w.p.size(), w.box, w.shape);
+  w.ext = hardrod::ListExtension();
   move(w, 10);
-  EXPECT_TRUE(w.list.built.x.empty());
-  EXPECT_FALSE(extend_neighbor_list(w.list, w.p, w.box, w.shape, 0.0, 1 << 30));
+  EXPECT_FALSE(extend_neighbor_list(w.list, w.ext, w.p, w.box, w.shape, 0.0, 1 << 30));
 
   // Shadows (several ranks): bodies [owned, count) are other ranks' copies.
   Fluid u = built(0.0, 6);
   const std::size_t n = u.p.size();
   build_neighbor_list(u.list, u.p, n, n - 20, u.box, u.shape);
+  start_extension(u.ext, u.list, u.p, n - 20, u.shape);
+  EXPECT_TRUE(u.ext.built.x.empty());
   move(u, 7);
-  EXPECT_FALSE(extend_neighbor_list(u.list, u.p, u.box, u.shape, 0.0, 1 << 30));
-  EXPECT_EQ(u.list.extended, 0);
+  EXPECT_FALSE(extend_neighbor_list(u.list, u.ext, u.p, u.box, u.shape, 0.0, 1 << 30));
+  EXPECT_EQ(u.ext.extended, 0);
 }
 
 }  // namespace

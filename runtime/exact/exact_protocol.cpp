@@ -1,4 +1,4 @@
-#include "runtime/exact_protocol.hpp"
+#include "runtime/exact/exact_protocol.hpp"
 
 #include <algorithm>
 #include <cstring>

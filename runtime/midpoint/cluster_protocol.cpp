@@ -1,4 +1,4 @@
-#include "runtime/cluster_protocol.hpp"
+#include "runtime/midpoint/cluster_protocol.hpp"
 
 #include <algorithm>
 #include <iterator>

@@ -2,7 +2,7 @@
 // rank's whole step, or on several ranks the clusters a rank owns whole.
 #include <algorithm>
 
-#include "kernels/exact_events.hpp"
+#include "kernels/exact/exact_events.hpp"
 
 namespace hardrod::exact_events {
 namespace {

@@ -1,9 +1,9 @@
-// Phase 5b of the step (runtime/simulation.hpp): the contact clusters with a body that other
-// ranks hold (shadows, or owned bodies with shadow copies), resolved across ranks. Every rank
-// detects exactly the contacts of the bodies it owns (the pair list keeps the pairs with an
-// owned body), so a cluster's contacts are the union of its owners' records. In one exchange
-// each rank sends, for each such cluster it sees, its contacts, the velocities of the bodies
-// and the contact counts of the bodies it owns, to every owner and holder of those bodies. A
+// Phase 5b of the midpoint method's step (runtime/midpoint/midpoint_step.hpp): the contact clusters
+// with a body that other ranks hold (shadows, or owned bodies with shadow copies), resolved across
+// ranks. Every rank detects exactly the contacts of the bodies it owns (the pair list keeps the
+// pairs with an owned body), so a cluster's contacts are the union of its owners' records. In one
+// exchange each rank sends, for each such cluster it sees, its contacts, the velocities of the
+// bodies and the contact counts of the bodies it owns, to every owner and holder of those bodies. A
 // rank merges what it gets with its own; a merged cluster is complete when every body's count
 // is its owner's, and then the rank resolves it itself: the same contacts in the same order
 // with the same velocities give the same bits on every rank, so no results travel. With two
@@ -11,73 +11,65 @@
 // cluster can reach a rank only in part; a second exchange then sends every resolved
 // cluster's velocities and impulses to the ranks that hold its bodies. An owned body left in
 // an unresolved cluster is an error, reported collectively at the next step. The records and
-// their wire format are in runtime/cluster_protocol.hpp; the solver in kernels/.
+// their wire format are in runtime/midpoint/cluster_protocol.hpp; the solver in kernels/.
 #include <algorithm>
 
-#include "runtime/simulation.hpp"
+#include "runtime/midpoint/midpoint_step.hpp"
 
 namespace hardrod {
 
 namespace {
 
-constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+constexpr std::size_t kNone = System::kNotAdvanced;
 
 }  // namespace
 
 // Returns the solver's statistics of the clusters counted here (those whose first contact's
 // lower-id body this rank owns).
-ResolutionStats Simulation::resolve_across_ranks(const ContactClusters &cc,
-                                                 const std::vector<char> &local) {
-  ClusterRecords records = exchange_records(cc, local);
+ResolutionStats MidpointStep::resolve_across_ranks(System &sys, const ContactClusters &cc,
+                                                   const std::vector<char> &local) {
+  ClusterRecords records = exchange_records(sys, cc, local);
   const RecordClusters rc = cluster_records(records);
   // Where each record body is here: its local index among the bodies this rank advances.
   std::vector<std::size_t> where(records.bodies.size());
   std::vector<char> owned(records.bodies.size());
   for (std::size_t b = 0; b < records.bodies.size(); ++b) {
-    const auto it = index_.find(records.bodies[b].id);
-    where[b] = it == index_.end() || it->second >= advanced() ? kNone : it->second;
-    owned[b] = where[b] < owned_;
+    where[b] = sys.advanced_index(records.bodies[b].id);
+    owned[b] = where[b] < sys.owned_count();
   }
-  const std::vector<char> take = clusters_to_resolve(records, rc, where);
+  const std::vector<char> take = clusters_to_resolve(records, rc, where, sys.owned_count());
   std::vector<Contact> solved;
   std::vector<std::uint32_t> slot;
   const std::size_t counted =
       scratch_problem(records, rc, take, owned, spanning_bodies_, solved, slot);
-  const ResolutionStats stats = resolve_clusters(spanning_bodies_, scene_.shape, solved,
+  const ResolutionStats stats = resolve_clusters(spanning_bodies_, sys.scene().shape, solved,
                                                  find_clusters(solved), {}, solver_, counted);
   note_spanning(records, rc, take, owned);
 
   // The results: velocities of the bodies held here, impulses of this rank's contacts.
-  settled_.resize(particles_.size(), 0);
+  Particles &p = sys.particles();
+  settled_.resize(p.size(), 0);
   const std::size_t first_settled = shared_in_.size();
   for (std::size_t b = 0; b < records.bodies.size(); ++b) {
     if (slot[b] == kDegreeUnknown) continue;
     double m[6];
     read_motion(spanning_bodies_, slot[b], m);
-    settle_body(where[b], m);
+    settle_body(p, where[b], m);
   }
   for (const Contact &ct : solved) set_impulse(ct);
-  if (comm_.size() > 2 || results_exchange_) exchange_results(records, rc, take, slot, solved);
-  note_unresolved(cc, local);
+  if (sys.comm().size() > 2 || results_exchange_)
+    exchange_results(sys, records, rc, take, slot, solved);
+  note_unresolved(sys, cc, local);
   for (std::size_t k = first_settled; k < shared_in_.size(); ++k) settled_[shared_in_[k]] = 0;
   return stats;
 }
 
-// The ranks other than this one that own or hold body `id` (if this rank holds it), added
-// to `targets`.
-void Simulation::add_targets(std::int64_t id, std::vector<int> &targets) const {
-  const auto h = holding_.find(id);
-  if (h == holding_.end()) return;
-  if (h->second.owner != comm_.rank()) targets.push_back(h->second.owner);
-  for (int r : h->second.holders)
-    if (r != comm_.rank()) targets.push_back(r);
-}
-
 // The contacts exchange: this rank's records of every cluster with a body held elsewhere, to
 // the owners and holders of its bodies; returns them merged with what the partners sent.
-ClusterRecords Simulation::exchange_records(const ContactClusters &cc,
-                                            const std::vector<char> &local) {
-  const auto &partners = domain_.partners();
+ClusterRecords MidpointStep::exchange_records(System &sys, const ContactClusters &cc,
+                                              const std::vector<char> &local) {
+  const auto &partners = sys.domain().partners();
+  const Particles &p = sys.particles();
   ClusterRecords records;
   std::vector<int> targets;
   std::vector<std::vector<char>> &out = spanning_out_;
@@ -95,23 +87,23 @@ ClusterRecords Simulation::exchange_records(const ContactClusters &cc,
       records.contacts.push_back(ct);
       for (std::uint32_t i : {ct.i, ct.j}) {
         ClusterRecords::Body b;
-        b.id = particles_.id[i];
+        b.id = p.id[i];
         if (std::any_of(records.bodies.begin() + static_cast<long>(first_body),
                         records.bodies.end(),
                         [&](const ClusterRecords::Body &o) { return o.id == b.id; }))
           continue;
-        b.degree = i < owned_ ? cc.degree[cc.find(i)] : kDegreeUnknown;
-        read_motion(particles_, i, b.motion);
+        b.degree = i < sys.owned_count() ? cc.degree[cc.find(i)] : kDegreeUnknown;
+        read_motion(p, i, b.motion);
         records.bodies.push_back(b);
-        add_targets(b.id, targets);
+        sys.add_targets(b.id, targets);
       }
     }
     sort_unique(targets);
     for (int r : targets)
-      pack_cluster(out[domain_.partner_slot(r)], records.bodies.data() + first_body,
+      pack_cluster(out[sys.domain().partner_slot(r)], records.bodies.data() + first_body,
                    records.bodies.size() - first_body, mine.data(), mine.size(), Wire::kRecord);
   }
-  for (const auto &buf : comm_.exchange("contacts", partners, out))
+  for (const auto &buf : sys.comm().exchange("contacts", partners, out))
     unpack_clusters(buf, records, Wire::kRecord);
   records.tidy();
   return records;
@@ -119,23 +111,23 @@ ClusterRecords Simulation::exchange_records(const ContactClusters &cc,
 
 // The complete clusters with a body this rank advances (with the results exchange for
 // tests: only those this rank counts).
-std::vector<char> Simulation::clusters_to_resolve(const ClusterRecords &records,
-                                                  const RecordClusters &rc,
-                                                  const std::vector<std::size_t> &where) const {
+std::vector<char> MidpointStep::clusters_to_resolve(const ClusterRecords &records,
+                                                    const RecordClusters &rc,
+                                                    const std::vector<std::size_t> &where,
+                                                    std::size_t owned) const {
   std::vector<char> take(rc.count(), 0);
   for (std::size_t b = 0; b < records.bodies.size(); ++b)
     if (where[b] != kNone && rc.cluster_of_body[b] != kDegreeUnknown)
       take[rc.cluster_of_body[b]] = 1;  // held here
   for (std::size_t c = 0; c < rc.count(); ++c) {
     take[c] = take[c] && rc.complete[c];
-    if (results_exchange_)
-      take[c] = take[c] && where[records.contacts[rc.contact(c, 0)].i] < owned_;
+    if (results_exchange_) take[c] = take[c] && where[records.contacts[rc.contact(c, 0)].i] < owned;
   }
   return take;
 }
 
-void Simulation::note_spanning(const ClusterRecords &records, const RecordClusters &rc,
-                               const std::vector<char> &take, const std::vector<char> &owned) {
+void MidpointStep::note_spanning(const ClusterRecords &records, const RecordClusters &rc,
+                                 const std::vector<char> &take, const std::vector<char> &owned) {
   ++spanning_.exchanges;
   for (std::size_t c = 0; c < rc.count(); ++c) {
     if (!take[c]) continue;
@@ -152,15 +144,15 @@ void Simulation::note_spanning(const ClusterRecords &records, const RecordCluste
 
 // Body i's velocities from a resolution (once per step; kNone: not held here). Its motion
 // constants are then due (midpoint).
-void Simulation::settle_body(std::size_t i, const double (&m)[6]) {
+void MidpointStep::settle_body(Particles &p, std::size_t i, const double (&m)[6]) {
   if (i == kNone || settled_[i]) return;
-  write_motion(particles_, i, m);
+  write_motion(p, i, m);
   shared_in_.push_back(static_cast<std::uint32_t>(i));
   settled_[i] = 1;
 }
 
 // The impulse of this rank's contact with the ids of `solved`, if it has one.
-void Simulation::set_impulse(const Contact &solved) {
+void MidpointStep::set_impulse(const Contact &solved) {
   const auto it = std::lower_bound(contacts_.begin(), contacts_.end(), solved, canonical_less);
   if (it != contacts_.end() && it->id_i == solved.id_i && it->id_j == solved.id_j)
     it->impulse = solved.impulse;
@@ -169,10 +161,10 @@ void Simulation::set_impulse(const Contact &solved) {
 // The results exchange, for clusters that reached a rank only in part: the velocities and
 // impulses of every cluster resolved here, to the owners and holders of its bodies that this
 // rank knows (duplicates carry the same bits).
-void Simulation::exchange_results(const ClusterRecords &records, const RecordClusters &rc,
-                                  const std::vector<char> &take,
-                                  const std::vector<std::uint32_t> &slot,
-                                  const std::vector<Contact> &solved) {
+void MidpointStep::exchange_results(System &sys, const ClusterRecords &records,
+                                    const RecordClusters &rc, const std::vector<char> &take,
+                                    const std::vector<std::uint32_t> &slot,
+                                    const std::vector<Contact> &solved) {
   const Particles &work = spanning_bodies_;
   std::vector<std::vector<char>> &results = spanning_out_;
   for (auto &o : results) o.clear();
@@ -192,7 +184,7 @@ void Simulation::exchange_results(const ClusterRecords &records, const RecordClu
       body.id = work.id[k];
       read_motion(work, k, body.motion);
       done.push_back(body);
-      add_targets(body.id, targets);
+      sys.add_targets(body.id, targets);
     }
     for (std::size_t k = 0; k < rc.size(c); ++k) {  // solved holds them in the same order
       const Contact &probe = records.contacts[rc.contact(c, k)];
@@ -200,34 +192,31 @@ void Simulation::exchange_results(const ClusterRecords &records, const RecordClu
     }
     sort_unique(targets);
     for (int r : targets)
-      pack_cluster(results[domain_.partner_slot(r)], done.data(), done.size(), impulses.data(),
+      pack_cluster(results[sys.domain().partner_slot(r)], done.data(), done.size(), impulses.data(),
                    impulses.size(), Wire::kResults);
   }
-  for (const auto &in : comm_.exchange("results", domain_.partners(), results)) {
+  for (const auto &in : sys.comm().exchange("results", sys.domain().partners(), results)) {
     ClusterRecords got;
     unpack_clusters(in, got, Wire::kResults);
     for (const ClusterRecords::Body &b : got.bodies) {
-      const auto it = index_.find(b.id);
-      const std::size_t i = it == index_.end() || it->second >= advanced() ? kNone : it->second;
+      const std::size_t i = sys.advanced_index(b.id);
       spanning_.from_results += i != kNone && !settled_[i];
-      settle_body(i, b.motion);
+      settle_body(sys.particles(), i, b.motion);
     }
     for (const Contact &ct : got.contacts) set_impulse(ct);
   }
 }
 
 // An owned body in a cluster that no rank resolved for it: an error for the next agreement.
-void Simulation::note_unresolved(const ContactClusters &cc, const std::vector<char> &local) {
+void MidpointStep::note_unresolved(System &sys, const ContactClusters &cc,
+                                   const std::vector<char> &local) const {
   for (std::size_t c = 0; c < cc.count(); ++c) {
     if (local[c]) continue;
     for (std::size_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
       const Contact &ct = contacts_[cc.order[k]];
       for (std::uint32_t i : {ct.i, ct.j})
-        if (i < owned_ && !settled_[i]) {
-          pending_unresolved_ =
-              std::max(pending_unresolved_, static_cast<double>(cc.start[c + 1] - cc.start[c]));
-          pending_step_ = step_ + 1;
-        }
+        if (i < sys.owned_count() && !settled_[i])
+          sys.note_unresolved(static_cast<double>(cc.start[c + 1] - cc.start[c]));
     }
   }
 }

@@ -49,7 +49,7 @@
 #include "kernels/box.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/contact_resolution.hpp"
-#include "kernels/contact_time.hpp"
+#include "kernels/exact/contact_time.hpp"
 #include "kernels/exact_sum.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/particles.hpp"

@@ -5,23 +5,23 @@
 
 #include <cmath>
 
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 #include "tests/test_scenes.hpp"
 
 namespace hardrod {
 namespace {
 
-void run_steps(Simulation &sim, long long steps) {
+void run_steps(System &sim, long long steps) {
   for (long long k = 0; k < steps; ++k) sim.step();
 }
 
-TEST(Simulation, SameStateForAnyThreadCount) {
+TEST(System, SameStateForAnyThreadCount) {
   for (const Scene &scene : {testing::small_nematic(), testing::hard_spheres(8, 0.45)}) {
     std::string reference;
     long long reference_collisions = -1;
     for (int threads : {1, 2, 3}) {
       omp_set_num_threads(threads);
-      Simulation sim(scene);
+      System sim(scene);
       run_steps(sim, 600);
       const long long collisions = sim.take_interval().collisions;
       EXPECT_GT(collisions, 50) << scene.shape_name;
@@ -40,10 +40,10 @@ TEST(Simulation, SameStateForAnyThreadCount) {
 // Steps in bursts (the run loop's way, with the half steps between steps fused) give the
 // bits of one step() at a time, across the rotor-constraint (100) and thermostat (every 50
 // here) steps, for rods and spheres.
-TEST(Simulation, BurstsOfStepsEqualSingleSteps) {
+TEST(System, BurstsOfStepsEqualSingleSteps) {
   for (Scene scene : {testing::small_nematic(), testing::hard_spheres(8, 0.45)}) {
     scene.thermostat_interval = 50;
-    Simulation single(scene), bursts(scene);
+    System single(scene), bursts(scene);
     run_steps(single, 437);
     for (const long long burst : {1, 7, 64, 150, 215}) bursts.advance(burst);
     ASSERT_EQ(bursts.current_step(), 437);
@@ -61,7 +61,7 @@ TEST(Simulation, BurstsOfStepsEqualSingleSteps) {
 // bodies started with a spin about their axis): the same bits either way. (A rebuild on one rank
 // only reorders bodies, constants with them; the new bodies and shadows of a rebuild on several
 // ranks are the parallel matrix's.)
-TEST(Simulation, MotionConstantsFollowEveryVelocityChange) {
+TEST(System, MotionConstantsFollowEveryVelocityChange) {
   for (Scene scene : {testing::small_nematic(1e-3), testing::hard_spheres(8, 0.45)}) {
     scene.thermostat_interval = 30;
     Particles fast = initial_bodies(scene);
@@ -70,7 +70,7 @@ TEST(Simulation, MotionConstantsFollowEveryVelocityChange) {
     // A spin about the axis too, which the rotor constraints (step 100) take out again.
     for (std::size_t i = 0; i < fast.size(); ++i)
       fast.set_angular_velocity(i, fast.angular_velocity(i) + 0.3 * fast.axis(i));
-    Simulation single(scene, fast), bursts(scene, fast);
+    System single(scene, fast), bursts(scene, fast);
     const double hot = single.kinetic_energy();
     run_steps(single, 345);
     for (const long long burst : {3, 17, 64, 29, 101, 64, 2, 65}) bursts.advance(burst);
@@ -85,16 +85,16 @@ TEST(Simulation, MotionConstantsFollowEveryVelocityChange) {
 
 // The trajectory depends on the bodies, not on where they sit in memory: start from the same
 // state stored in a shuffled order and the final state must be the same, bit for bit.
-TEST(Simulation, SameStateForAnyStorageOrder) {
+TEST(System, SameStateForAnyStorageOrder) {
   const Scene scene = testing::small_nematic();
-  Simulation reference(scene);
+  System reference(scene);
   Particles shuffled = reference.particles();
   std::vector<std::uint32_t> order(shuffled.size());
   for (std::size_t k = 0; k < order.size(); ++k)
     order[k] = static_cast<std::uint32_t>((k * 97) % order.size());  // 97 is coprime to 288
   shuffled.permute(order);
   ASSERT_NE(shuffled.id, reference.particles().id);
-  Simulation other(scene, shuffled);
+  System other(scene, shuffled);
   run_steps(reference, 800);
   run_steps(other, 800);
   EXPECT_GT(reference.take_interval().collisions, 50);
@@ -104,9 +104,9 @@ TEST(Simulation, SameStateForAnyStorageOrder) {
 // Forward, reverse every velocity, the same number of steps back: the start returns.
 // Hard-body dynamics is chaotic, so round-off grows by orders of magnitude over the run;
 // 1500 steps of dt = 1e-4 (0.15 tau, about 5 collisions per rod) stay within 1e-7 D.
-TEST(Simulation, TimeReversible) {
+TEST(System, TimeReversible) {
   for (const Scene &scene : {testing::small_nematic(), testing::hard_spheres(7, 0.40)}) {
-    Simulation sim(scene);
+    System sim(scene);
     const Particles start = sim.particles();
     run_steps(sim, 1500);
     const long long collisions = sim.take_interval().collisions;
@@ -135,10 +135,10 @@ TEST(Simulation, TimeReversible) {
 
 // Without thermostat, isolated collisions conserve kinetic energy exactly; what drifts is
 // the multi-contact clusters, which become rarer as dt shrinks.
-TEST(Simulation, EnergyDriftShrinksWithDt) {
+TEST(System, EnergyDriftShrinksWithDt) {
   double previous = -1;
   for (double dt : {1e-3, 2.5e-4, 6.25e-5}) {
-    Simulation sim(testing::small_nematic(dt));
+    System sim(testing::small_nematic(dt));
     const double e0 = sim.kinetic_energy();
     run_steps(sim, static_cast<long long>(std::llround(0.25 / dt)));
     const double drift = std::fabs(sim.kinetic_energy() / e0 - 1.0);
@@ -152,10 +152,10 @@ TEST(Simulation, EnergyDriftShrinksWithDt) {
   EXPECT_LT(previous, 1e-6);
 }
 
-TEST(Simulation, StopsWhenDtBreaksThePhysics) {
+TEST(System, StopsWhenDtBreaksThePhysics) {
   Scene scene = testing::small_nematic(0.05);
   scene.max_overlap = 0.05;
-  Simulation sim(scene);
+  System sim(scene);
   try {
     run_steps(sim, 2000);
     FAIL() << "a dt of 0.05 must produce overlaps beyond 0.05 D";
@@ -166,10 +166,10 @@ TEST(Simulation, StopsWhenDtBreaksThePhysics) {
   }
 }
 
-TEST(Simulation, ThermostatRestoresTargetEnergy) {
+TEST(System, ThermostatRestoresTargetEnergy) {
   Scene scene = testing::small_nematic(1e-3);
   scene.thermostat_interval = 50;
-  Simulation sim(scene);
+  System sim(scene);
   run_steps(sim, 200);
   EXPECT_NEAR(sim.kinetic_energy() / sim.target_kinetic_energy(), 1.0, 1e-12);
   EXPECT_EQ(sim.thermostat_record().applications, 4);

@@ -1,5 +1,5 @@
-// Phase 5 of the exact step (runtime/exact_step.cpp) on several ranks: the step's clusters
-// solved where their bodies live, in rounds agreed by all ranks.
+// Phase 5 of the exact method's step (runtime/exact/exact_step.hpp) on several ranks: the step's
+// clusters solved where their bodies live, in rounds agreed by all ranks.
 //
 // Each rank detects the candidates of the bodies it owns (the pair list keeps the pairs with an
 // owned body), so a cluster's edges are the union of its owners'. A round:
@@ -32,8 +32,8 @@
 #include <limits>
 
 #include "kernels/union_find.hpp"
-#include "runtime/exact_protocol.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/exact/exact_protocol.hpp"
+#include "runtime/exact/exact_step.hpp"
 
 namespace hardrod {
 
@@ -166,45 +166,49 @@ std::vector<char> renewed_clusters(const ExactPieces &pieces, const ExactCluster
 
 // Phase 5 on several ranks; `reach` gets the largest flight of a flown body on any rank (the
 // list expires if it passes half the skin: the caller solves the step again on a new list).
-ExactStats Simulation::collide_on_ranks(double &reach) {
-  const std::size_t n = advanced();
+ExactStats ExactStep::collide_on_ranks(System &sys, double &reach) {
+  const std::size_t n = sys.advanced();
   ExactRound round;
   round.label.assign(n, -1);
   round.size.assign(n, 0);
   round.flown_at.assign(n, kNoBody);
   round.dirty.assign(n, 1);
-  const bool incremental = comm_.size() == 2 && !results_path();
+  const bool incremental = sys.comm().size() == 2 && !results_path(sys.comm().size());
   std::vector<double> overrun_scratch;
   for (;;) {
-    const ExactComponents cc = components(n, owned_, candidates_, round.joins, shared_);
+    const ExactComponents cc =
+        components(n, sys.owned_count(), candidates_, round.joins, sys.shared());
     const std::vector<char> changed = round.take_changed(cc);
-    solve_local_components(round, cc, changed);
-    solve_spanning_components(round, cc, changed);
+    solve_local_components(sys, round, cc, changed);
+    solve_spanning_components(sys, round, cc, changed);
     const std::vector<FlownBody> flown = round.current();
-    const std::vector<BodyPair> joins = overrun_reaches(particles_, scene_.box, scene_.shape, list_,
-                                                        flown, round.label, overrun_scratch);
+    const std::vector<BodyPair> joins =
+        overrun_reaches(sys.particles(), sys.scene().box, sys.scene().shape, sys.list(), flown,
+                        round.label, overrun_scratch);
     double largest = 0.0;
     for (const FlownBody &f : flown)
-      largest = std::max(largest, particles_.motion_bound[f.body] + f.overrun);
+      largest = std::max(largest, sys.particles().motion_bound[f.body] + f.overrun);
     std::vector<double> flags{static_cast<double>(joins.size()),
                               static_cast<double>(round.unresolved), largest};
     {
-      ScopedRegion r(timers_, Region::kAgree);
-      flags = comm_.max("exact_round", flags);
+      ScopedRegion r(sys.timers(), Region::kAgree);
+      flags = sys.comm().max("exact_round", flags);
     }
     if (flags[1] > 0.0)
-      fail(
+      sys.fail(
           fmt::format("step {}: a cluster of the exact method that spans ranks reached a rank "
                       "only in part ({} bodies left unsolved)",
-                      step_ + 1, flags[1]));
+                      sys.current_step() + 1, flags[1]));
     if (flags[0] == 0.0) {
       reach = flags[2];
       flown_ = flown;
-      return exact_counts(round, flown);
+      return exact_counts(sys, round, flown);
     }
     for (const auto &[a, b] : joins)  // each join counted by the owner of its lower-id body
-      round.work.regrown += (particles_.id[a] < particles_.id[b] ? a : b) < owned_;
-    round.next_round(joins, incremental, owned_);  // the components the joins changed go again
+      round.work.regrown +=
+          (sys.particles().id[a] < sys.particles().id[b] ? a : b) < sys.owned_count();
+    round.next_round(joins, incremental,
+                     sys.owned_count());  // the components the joins changed go again
   }
 }
 
@@ -212,8 +216,8 @@ ExactStats Simulation::collide_on_ranks(double &reach) {
 // results for the next exchange. In a step's first round only those whose velocity changed
 // (the holders have nothing to replace); after joins every one, so that a result from an
 // earlier round is replaced even where the body no longer collides.
-void Simulation::solve_local_components(ExactRound &round, const ExactComponents &cc,
-                                        const std::vector<char> &changed) {
+void ExactStep::solve_local_components(System &sys, ExactRound &round, const ExactComponents &cc,
+                                       const std::vector<char> &changed) {
   std::vector<char> solve(cc.count(), 0);
   for (std::size_t c = 0; c < cc.count(); ++c) solve[c] = changed[c] && !cc.spanning[c];
   std::vector<Candidate> candidates;
@@ -223,9 +227,9 @@ void Simulation::solve_local_components(ExactRound &round, const ExactComponents
   for (const BodyPair &j : round.joins)
     if (solve[cc.comp_of[j.first]]) joins.push_back(j);
   std::vector<FlownBody> flown;
-  round.work += collide_once(particles_, scene_.box, scene_.shape, list_, candidates, joins,
-                             scene_.dt, exact_settings_, exact_scratch_, flown);
-  std::vector<const FlownBody *> flown_of(advanced(), nullptr);
+  round.work += collide_once(sys.particles(), sys.scene().box, sys.scene().shape, sys.list(),
+                             candidates, joins, sys.scene().dt, settings_, scratch_, flown);
+  std::vector<const FlownBody *> flown_of(sys.advanced(), nullptr);
   for (const FlownBody &f : flown) flown_of[f.body] = &f;
   const bool first_round = round.joins.empty();
   for (std::size_t c = 0; c < cc.count(); ++c) {
@@ -234,12 +238,12 @@ void Simulation::solve_local_components(ExactRound &round, const ExactComponents
     const std::uint32_t *last = cc.bodies.data() + cc.start[c + 1];
     std::int64_t lowest = std::numeric_limits<std::int64_t>::max();  // the cluster's label
     for (const std::uint32_t *b = first; b != last; ++b)
-      lowest = std::min(lowest, particles_.id[*b]);
+      lowest = std::min(lowest, sys.particles().id[*b]);
     const auto size = static_cast<std::uint32_t>(last - first);
     for (const std::uint32_t *b = first; b != last; ++b) {
       round.settle(*b, lowest, size, flown_of[*b]);
-      if (!cc.held[c] || !shared_[*b] || (flown_of[*b] == nullptr && first_round)) continue;
-      round.outgoing.push_back(exact_result(particles_.id[*b], lowest, size, flown_of[*b]));
+      if (!cc.held[c] || !sys.shared()[*b] || (flown_of[*b] == nullptr && first_round)) continue;
+      round.outgoing.push_back(exact_result(sys.particles().id[*b], lowest, size, flown_of[*b]));
     }
   }
 }
@@ -247,11 +251,11 @@ void Simulation::solve_local_components(ExactRound &round, const ExactComponents
 // The spanning components: pieces of the changed ones to the owners and holders of their
 // bodies, merged with every piece of the step; the complete merged clusters that changed (a body
 // in this round's pieces) and have a body advanced here are solved here; results where needed.
-void Simulation::solve_spanning_components(ExactRound &round, const ExactComponents &cc,
-                                           const std::vector<char> &changed) {
-  std::vector<std::int64_t> fresh = exchange_pieces(round, cc, changed);
+void ExactStep::solve_spanning_components(System &sys, ExactRound &round, const ExactComponents &cc,
+                                          const std::vector<char> &changed) {
+  std::vector<std::int64_t> fresh = exchange_pieces(sys, round, cc, changed);
   std::sort(fresh.begin(), fresh.end());
-  if (comm_.size() > 2) forward_pieces(round, fresh);
+  if (sys.comm().size() > 2) forward_pieces(sys, round, fresh);
   ExactPieces &pieces = round.pieces;
   const ExactClusters ec = exact_clusters(pieces);
   // Of the renewed clusters' bodies: the local index if advanced here.
@@ -264,25 +268,27 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
     const std::uint32_t *last = ec.members.data() + ec.start[c + 1];
     bool held = false;
     for (const std::uint32_t *b = first; b != last; ++b) {
-      const auto it = index_.find(pieces.bodies[*b].id);
-      if (it == index_.end() || it->second >= advanced()) continue;
-      where[*b] = it->second;
-      round.forget(it->second);
+      const std::size_t at = sys.advanced_index(pieces.bodies[*b].id);
+      if (at == System::kNotAdvanced) continue;
+      where[*b] = static_cast<std::uint32_t>(at);
+      round.forget(where[*b]);
       held = true;
     }
-    take[c] = ec.complete[c] && held && (!results_path() || where[*first] < owned_);
+    take[c] = ec.complete[c] && held &&
+              (!results_path(sys.comm().size()) || where[*first] < sys.owned_count());
+    record_.resolved += take[c];
   }
-  ExactProblem &problem = exact_problem_;
-  const double near = scene_.shape.length + scene_.shape.diameter + 2.0 * list_.skin;
-  exact_problem(pieces, ec, take, scene_.box, near, problem);
+  ExactProblem &problem = problem_;
+  const double near = sys.scene().shape.length + sys.scene().shape.diameter + 2.0 * sys.list().skin;
+  exact_problem(pieces, ec, take, sys.scene().box, near, problem);
   // By cluster, never in one queue: a rank solves the complete clusters it has a body of, and
   // each cluster must come out the same on every rank that solves it, whatever else it solves.
-  ExactSettings by_cluster = exact_settings_;
+  ExactSettings by_cluster = settings_;
   by_cluster.one_queue = false;
   std::vector<FlownBody> flown;
   round.work +=
-      collide_once(problem.bodies, scene_.box, scene_.shape, problem.list, problem.candidates,
-                   problem.joins, scene_.dt, by_cluster, exact_scratch_, flown);
+      collide_once(problem.bodies, sys.scene().box, sys.scene().shape, problem.list,
+                   problem.candidates, problem.joins, sys.scene().dt, by_cluster, scratch_, flown);
   // Every body of a solved cluster, as a result (by work index).
   std::vector<const FlownBody *> flown_of(problem.piece.size(), nullptr);
   for (const FlownBody &f : flown) flown_of[f.body] = &f;
@@ -294,7 +300,7 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
                                    ec.size(c), flown_of[k]));
     if (where[pb] != kNoBody) settle_exact(round, where[pb], results.back());
   }
-  if (results_path()) exchange_exact_results(round, results);
+  if (results_path(sys.comm().size())) exchange_exact_results(sys, round, results);
   // Every advanced body of a spanning cluster is in its owner's piece, which came here.
   round.unresolved = 0;
   for (const std::uint32_t b : where) round.unresolved += b != kNoBody && round.label[b] == -1;
@@ -307,88 +313,89 @@ void Simulation::solve_spanning_components(ExactRound &round, const ExactCompone
 // forwarding reaches one rank further along the cluster (an edge's two owners hold both its
 // bodies, so the ranks of a cluster are linked by bodies they share). `fresh` gains the
 // forwarded bodies.
-void Simulation::forward_pieces(ExactRound &round, std::vector<std::int64_t> &fresh) {
+void ExactStep::forward_pieces(System &sys, ExactRound &round, std::vector<std::int64_t> &fresh) {
   ExactPieces &pieces = round.pieces;
-  for (int hop = 0; hop < comm_.size(); ++hop) {
+  for (int hop = 0; hop < sys.comm().size(); ++hop) {
     const ExactClusters ec = exact_clusters(pieces);
     const std::vector<char> renewed = renewed_clusters(pieces, ec, fresh);
     double needy = 0.0;
     for (std::size_t c = 0; c < ec.count(); ++c) {
       if (!renewed[c] || ec.complete[c]) continue;
       for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k) {
-        const auto it = index_.find(pieces.bodies[ec.members[k]].id);
-        if (it != index_.end() && it->second < advanced()) needy = 1.0;
+        if (sys.advanced_index(pieces.bodies[ec.members[k]].id) != System::kNotAdvanced)
+          needy = 1.0;
       }
     }
     {
-      ScopedRegion r(timers_, Region::kAgree);
-      if (comm_.max("exact_round", {needy})[0] == 0.0) return;
+      ScopedRegion r(sys.timers(), Region::kAgree);
+      if (sys.comm().max("exact_round", {needy})[0] == 0.0) return;
     }
     std::vector<std::vector<ExactPieces::Edge>> edges(ec.count());
     for (std::size_t k = 0; k < pieces.edges.size(); ++k)
       edges[ec.cluster_of[pieces.ends[k].first]].push_back(pieces.edges[k]);
-    open_messages({});
+    open_messages(sys, {});
     std::vector<ExactPieces::Body> bodies;
     for (std::size_t c = 0; c < ec.count(); ++c) {
       if (!renewed[c]) continue;
       bodies.clear();
       for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k)
         bodies.push_back(pieces.bodies[ec.members[k]]);
-      post_piece(bodies, edges[c]);
+      post_piece(sys, bodies, edges[c]);
     }
     std::vector<ExactResult> none;
-    swap_pieces(pieces, pieces.bodies.size(), fresh, none);
+    swap_pieces(sys, pieces, pieces.bodies.size(), fresh, none);
     std::sort(fresh.begin(), fresh.end());
     fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
   }
 }
 
-// One piece into the messages (spanning_out_) to the owners and holders of its bodies.
-void Simulation::post_piece(const std::vector<ExactPieces::Body> &bodies,
-                            const std::vector<ExactPieces::Edge> &edges) {
+// One piece into the messages (out_) to the owners and holders of its bodies.
+void ExactStep::post_piece(const System &sys, const std::vector<ExactPieces::Body> &bodies,
+                           const std::vector<ExactPieces::Edge> &edges) {
   std::vector<int> targets;
-  for (const ExactPieces::Body &b : bodies) add_targets(b.id, targets);
+  for (const ExactPieces::Body &b : bodies) sys.add_targets(b.id, targets);
   sort_unique(targets);
-  for (int r : targets) pack_piece(spanning_out_[domain_.partner_slot(r)], bodies, edges);
+  for (int r : targets) pack_piece(out_[sys.domain().partner_slot(r)], bodies, edges);
 }
 
-// The messages to the partners (spanning_out_) emptied, each opened with `results` for the
+// The messages to the partners (out_) emptied, each opened with `results` for the
 // bodies that partner owns or holds (unpack_message's order).
-void Simulation::open_messages(const std::vector<ExactResult> &results) {
-  std::vector<std::vector<ExactResult>> to(domain_.partners().size());
+void ExactStep::open_messages(const System &sys, const std::vector<ExactResult> &results) {
+  std::vector<std::vector<ExactResult>> to(sys.domain().partners().size());
   std::vector<int> targets;
   for (const ExactResult &r : results) {
     targets.clear();
-    add_targets(r.id, targets);
-    for (int t : targets) to[domain_.partner_slot(t)].push_back(r);
+    sys.add_targets(r.id, targets);
+    for (int t : targets) to[sys.domain().partner_slot(t)].push_back(r);
   }
-  spanning_out_.resize(to.size());
+  out_.resize(to.size());
   for (std::size_t s = 0; s < to.size(); ++s) {
-    spanning_out_[s].clear();
-    pack_results(spanning_out_[s], to[s]);
+    out_[s].clear();
+    pack_results(out_[s], to[s]);
   }
 }
 
 // The posted messages exchanged with the partners: the results that arrive into `results`,
 // the pieces added to `pieces`, tidied; `fresh` gains the ids of every body added to `pieces`
 // since it held `first` bodies.
-void Simulation::swap_pieces(ExactPieces &pieces, std::size_t first,
-                             std::vector<std::int64_t> &fresh, std::vector<ExactResult> &results) {
-  for (const auto &buf : comm_.exchange("exact_pieces", domain_.partners(), spanning_out_))
+void ExactStep::swap_pieces(System &sys, ExactPieces &pieces, std::size_t first,
+                            std::vector<std::int64_t> &fresh, std::vector<ExactResult> &results) {
+  for (const auto &buf : sys.comm().exchange("exact_pieces", sys.domain().partners(), out_))
     unpack_message(buf, results, pieces);
   for (std::size_t k = first; k < pieces.bodies.size(); ++k) fresh.push_back(pieces.bodies[k].id);
   pieces.tidy();
 }
 
 // A held component's result from its owner, in place of any earlier one.
-void Simulation::replace_exact(ExactRound &round, const ExactResult &r) {
-  const auto it = index_.find(r.id);
-  if (it == index_.end() || it->second >= advanced()) return;
-  round.forget(it->second);
-  settle_exact(round, it->second, r);
+void ExactStep::replace_exact(const System &sys, ExactRound &round, const ExactResult &r) const {
+  const std::size_t at = sys.advanced_index(r.id);
+  if (at == System::kNotAdvanced) return;
+  const auto b = static_cast<std::uint32_t>(at);
+  round.forget(b);
+  settle_exact(round, b, r);
 }
 
-void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactResult &r) {
+void ExactStep::settle_exact(ExactRound &round, std::uint32_t b, const ExactResult &r) const {
   if (round.label[b] != -1) return;
   if (!r.flown) return round.settle(b, r.label, r.size, nullptr);
   const FlownBody f = flown_body(r, b);
@@ -399,21 +406,23 @@ void Simulation::settle_exact(ExactRound &round, std::uint32_t b, const ExactRes
 // the owners and holders of their bodies; what the partners sent: their results settled, their
 // pieces added to the step's pieces (tidy). Returns the ids of the bodies in this round's
 // pieces.
-std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const ExactComponents &cc,
-                                                      const std::vector<char> &changed) {
-  open_messages(round.outgoing);
+std::vector<std::int64_t> ExactStep::exchange_pieces(System &sys, ExactRound &round,
+                                                     const ExactComponents &cc,
+                                                     const std::vector<char> &changed) {
+  ++record_.exchanges;
+  open_messages(sys, round.outgoing);
   round.outgoing.clear();
   ExactPieces &pieces = round.pieces;
   const std::size_t first_new = pieces.bodies.size();
   // Each body's edges here, as ids (a < b): its candidates and joins; those of the components
   // that go, by component (a counting sort, stable: one flat array, not a vector each).
-  std::vector<std::uint32_t> degree(advanced(), 0);
+  std::vector<std::uint32_t> degree(sys.advanced(), 0);
   std::vector<std::pair<std::uint32_t, ExactPieces::Edge>> tagged;
   const auto add_edge = [&](std::uint32_t a, std::uint32_t b, std::int32_t kind) {
     ++degree[a], ++degree[b];
     const std::uint32_t c = cc.comp_of[a];
     if (!cc.spanning[c] || !changed[c]) return;
-    std::int64_t ia = particles_.id[a], ib = particles_.id[b];
+    std::int64_t ia = sys.particles().id[a], ib = sys.particles().id[b];
     if (ia > ib) std::swap(ia, ib);
     tagged.push_back({c, {ia, ib, kind}});
   };
@@ -436,28 +445,28 @@ std::vector<std::int64_t> Simulation::exchange_pieces(ExactRound &round, const E
     for (std::uint32_t k = cc.start[c]; k < cc.start[c + 1]; ++k) {
       const std::uint32_t b = cc.bodies[k];
       ExactPieces::Body body;
-      body.id = particles_.id[b];
-      body.degree = b < owned_ ? degree[b] : kDegreeUnknown;
-      read_exact_state(particles_, b, body.state);
+      body.id = sys.particles().id[b];
+      body.degree = b < sys.owned_count() ? degree[b] : kDegreeUnknown;
+      read_exact_state(sys.particles(), b, body.state);
       bodies.push_back(body);
     }
-    post_piece(bodies, edges);
+    post_piece(sys, bodies, edges);
     pieces.bodies.insert(pieces.bodies.end(), bodies.begin(), bodies.end());
     pieces.edges.insert(pieces.edges.end(), edges.begin(), edges.end());
   }
   std::vector<std::int64_t> fresh;
   std::vector<ExactResult> results;
-  swap_pieces(pieces, first_new, fresh, results);
-  for (const ExactResult &r : results) replace_exact(round, r);
+  swap_pieces(sys, pieces, first_new, fresh, results);
+  for (const ExactResult &r : results) replace_exact(sys, round, r);
   return fresh;
 }
 
 // For clusters that reached a rank only in part: every solved cluster's results to the owners
 // and holders of its bodies that this rank knows (duplicates carry the same bits).
-void Simulation::exchange_exact_results(ExactRound &round,
-                                        const std::vector<ExactResult> &results) {
-  const auto &partners = domain_.partners();
-  std::vector<std::vector<char>> &out = spanning_out_;
+void ExactStep::exchange_exact_results(System &sys, ExactRound &round,
+                                       const std::vector<ExactResult> &results) {
+  const auto &partners = sys.domain().partners();
+  std::vector<std::vector<char>> &out = out_;
   for (auto &o : out) o.clear();
   // Every result goes to every target of any body of its cluster: gather targets by label.
   std::vector<int> targets;
@@ -465,42 +474,44 @@ void Simulation::exchange_exact_results(ExactRound &round,
     std::size_t end = k;
     targets.clear();
     while (end < results.size() && results[end].label == results[k].label)
-      add_targets(results[end++].id, targets);
+      sys.add_targets(results[end++].id, targets);
     sort_unique(targets);
     const std::vector<ExactResult> cluster(results.begin() + static_cast<long>(k),
                                            results.begin() + static_cast<long>(end));
-    for (int r : targets) pack_results(out[domain_.partner_slot(r)], cluster);
+    for (int r : targets) pack_results(out[sys.domain().partner_slot(r)], cluster);
     k = end;
   }
   std::vector<ExactResult> got;
-  for (const auto &buf : comm_.exchange("exact_results", partners, out)) unpack_results(buf, got);
+  for (const auto &buf : sys.comm().exchange("exact_results", partners, out))
+    unpack_results(buf, got);
   for (const ExactResult &r : got) {
-    const auto it = index_.find(r.id);
-    if (it == index_.end() || it->second >= advanced()) continue;
-    spanning_.from_results += round.label[it->second] == -1;
-    settle_exact(round, it->second, r);
+    const std::size_t at = sys.advanced_index(r.id);
+    if (at == System::kNotAdvanced) continue;
+    const auto b = static_cast<std::uint32_t>(at);
+    record_.from_results += round.label[b] == -1;
+    settle_exact(round, b, r);
   }
 }
 
 // The step's counts: collisions and virial of the flown bodies this rank owns, clusters whose
 // lowest id it owns, candidates whose lower-id body it owns; the work of every round here.
-ExactStats Simulation::exact_counts(const ExactRound &round,
-                                    const std::vector<FlownBody> &flown) const {
+ExactStats ExactStep::exact_counts(const System &sys, const ExactRound &round,
+                                   const std::vector<FlownBody> &flown) const {
   ExactStats s = round.work;
   s.collisions = s.clusters = s.largest_cluster = s.candidates = s.apart = s.spares = 0;
   s.virial = ExactSum();
   for (const FlownBody &f : flown) {
-    if (f.body >= owned_) continue;
+    if (f.body >= sys.owned_count()) continue;
     s.collisions += f.collisions;
     s.virial += f.virial;
   }
-  for (std::uint32_t b = 0; b < owned_; ++b) {
-    if (round.label[b] != particles_.id[b]) continue;
+  for (std::uint32_t b = 0; b < sys.owned_count(); ++b) {
+    if (round.label[b] != sys.particles().id[b]) continue;
     ++s.clusters;
     s.largest_cluster = std::max<long long>(s.largest_cluster, round.size[b]);
   }
   for (const Candidate &c : candidates_) {
-    if (c.i >= owned_) continue;
+    if (c.i >= sys.owned_count()) continue;
     s.spares += c.spare;
     s.candidates += !c.spare;
     s.apart += c.apart && !c.spare;

@@ -1,4 +1,4 @@
-// The exact method's collisions within one step (kernels/exact_collisions.hpp), on bodies set
+// The exact method's collisions within one step (kernels/exact/exact_collisions.hpp), on bodies set
 // up by hand: the contact time and the impulse of a head-on pair against the closed form, the
 // virial at contact, a chain whose velocity changes reach bodies outside the first clusters,
 // the event cap's fallback, the pieces several ranks use (collide_once, overrun_reaches)
@@ -14,11 +14,11 @@
 #include <utility>
 
 #include "kernels/contact_detection.hpp"
-#include "kernels/exact_collisions.hpp"
-#include "kernels/exact_events.hpp"
+#include "kernels/exact/exact_collisions.hpp"
+#include "kernels/exact/exact_events.hpp"
 #include "kernels/free_flight.hpp"
 #include "kernels/neighbor_list.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 #include "tests/test_scenes.hpp"
 
 namespace hardrod {
@@ -262,7 +262,7 @@ TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
   Scene hot = testing::hard_spheres(10, 0.30, 1e-3);
   hot.method = kExact;
   hot.temperature = 25.0;
-  Simulation relax(hot);
+  System relax(hot);
   relax.advance(100);
   const struct {
     Particles p;
@@ -326,7 +326,7 @@ TEST(ExactCollisions, TheCandidatesOrderDoesNotChangeTheStep) {
   rods.method = kExact;
   long long collisions = 0, regrown = 0;
   for (const auto &[scene, dt] : {std::pair{hot, 4e-3}, std::pair{rods, 4e-3}}) {
-    Simulation relax(scene);
+    System relax(scene);
     relax.advance(100);
     Particles p = relax.particles();
     NeighborList list;
@@ -382,11 +382,11 @@ TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
   Scene hot = testing::hard_spheres(10, 0.30, 1e-3);
   hot.method = kExact;
   hot.temperature = 25.0;
-  Simulation hot_relaxed(hot);
+  System hot_relaxed(hot);
   hot_relaxed.advance(100);
   Scene rods = testing::small_nematic(1e-3);
   rods.method = kExact;
-  Simulation rods_relaxed(rods);
+  System rods_relaxed(rods);
   rods_relaxed.advance(100);
   const struct {
     Particles p;

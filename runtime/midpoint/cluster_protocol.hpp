@@ -1,7 +1,7 @@
 // The spanning-cluster protocol's data, without MPI: what ranks tell each other of the
 // contact clusters whose bodies live on several ranks (records and results), their wire
-// format, and the clusters found in merged records. Simulation::resolve_across_ranks
-// (runtime/spanning_clusters.cpp) runs the exchanges; docs/physics.md section 7 gives the
+// format, and the clusters found in merged records. MidpointStep::resolve_across_ranks
+// (runtime/midpoint/spanning_clusters.cpp) runs the exchanges; docs/physics.md section 7 gives the
 // determinism it keeps. A contact or a velocity seen by two ranks carries the same bits on
 // both (same bodies, same arithmetic), so duplicates are dropped by id. The grouping of
 // contacts into clusters is the kernels' (find_clusters, kernels/contact_resolution.hpp).
@@ -15,12 +15,9 @@
 #include "kernels/contact.hpp"
 #include "kernels/contact_resolution.hpp"
 #include "kernels/particles.hpp"
+#include "runtime/body_wire.hpp"
 
 namespace hardrod {
-
-// A body's contact count its owner has not told (the body is a shadow where the record
-// was made), and "no cluster" / "no slot" in the index lists below.
-inline constexpr std::uint32_t kDegreeUnknown = 0xffffffffu;
 
 // What a rank knows in one step of the clusters that span ranks: bodies (velocities, and
 // the contact count their owner detected) and contacts, from its own detection and from the

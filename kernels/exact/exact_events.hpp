@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "kernels/contact_detection.hpp"
-#include "kernels/exact_collisions.hpp"
+#include "kernels/exact/exact_collisions.hpp"
 
 namespace hardrod::exact_events {
 

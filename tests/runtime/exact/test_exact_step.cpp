@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "kernels/segment_geometry.hpp"
-#include "runtime/simulation.hpp"
+#include "runtime/system.hpp"
 #include "tests/test_scenes.hpp"
 
 namespace hardrod {
@@ -22,7 +22,7 @@ Scene exact(Scene s) {
 }
 
 // The smallest surface gap over all pairs (brute force, minimum image).
-double smallest_gap(const Simulation &sim) {
+double smallest_gap(const System &sim) {
   const Particles &p = sim.particles();
   const Box &box = sim.scene().box;
   const Vec3 inverse = box.inverse_length();
@@ -42,7 +42,7 @@ TEST(ExactStep, NoPairEverOverlapsAndEnergyIsConserved) {
   for (const Scene &scene :
        {exact(testing::small_nematic(2e-3)), exact(testing::hard_spheres(8, 0.45, 2e-3))}) {
     omp_set_num_threads(1);
-    Simulation sim(scene);
+    System sim(scene);
     const double e0 = sim.kinetic_energy();
     double worst = 1e300;
     for (int k = 0; k < 250; ++k) {
@@ -53,7 +53,7 @@ TEST(ExactStep, NoPairEverOverlapsAndEnergyIsConserved) {
     EXPECT_GT(t.collisions, 100) << scene.shape_name;
     EXPECT_GT(worst, -1e-9) << scene.shape_name;
     EXPECT_NEAR(sim.kinetic_energy() / e0, 1.0, 1e-11) << scene.shape_name;
-    EXPECT_EQ(sim.exact_record().totals.fallbacks, 0) << scene.shape_name;
+    EXPECT_EQ(testing::exact_record(sim).totals.fallbacks, 0) << scene.shape_name;
   }
 }
 
@@ -65,7 +65,7 @@ TEST(ExactStep, SameStateForAnyThreadCount) {
     std::string reference;
     for (int threads : {1, 2, 3}) {
       omp_set_num_threads(threads);
-      Simulation sim(scene);
+      System sim(scene);
       sim.advance(300);
       if (reference.empty())
         reference = sim.state_checksum();
@@ -76,7 +76,7 @@ TEST(ExactStep, SameStateForAnyThreadCount) {
   omp_set_num_threads(1);
 }
 
-// Extending the list body by body (kernels/list_extension.hpp) changes which pairs are
+// Extending the list body by body (kernels/exact/list_extension.hpp) changes which pairs are
 // measured, never what touches: the same bits as a build at every expiry, on one thread and
 // two, with fewer builds. 4096 spheres (a budget of 16 extensions a list) and 288 rods (one,
 // with near pairs).
@@ -90,13 +90,13 @@ TEST(ExactStep, ExtendedListsGiveTheSameBitsWithFewerBuilds) {
       omp_set_num_threads(threads);
       ParallelOptions plain;
       plain.extend_lists = false;
-      Simulation extended(scene), built(scene, plain);
+      System extended(scene), built(scene, plain);
       extended.advance(steps);
       built.advance(steps);
       const std::string where = scene.shape_name + ", " + std::to_string(threads) + " threads";
       EXPECT_EQ(extended.state_checksum(), built.state_checksum()) << where;
-      EXPECT_EQ(built.neighbor_list().extensions, 0);
-      EXPECT_GT(extended.neighbor_list().extensions, 0) << where;
+      EXPECT_EQ(testing::list_extension(built).extensions, 0);
+      EXPECT_GT(testing::list_extension(extended).extensions, 0) << where;
       EXPECT_LT(extended.neighbor_list().builds, built.neighbor_list().builds) << where;
       EXPECT_EQ(extended.take_interval().collisions, built.take_interval().collisions) << where;
     }
@@ -105,7 +105,7 @@ TEST(ExactStep, ExtendedListsGiveTheSameBitsWithFewerBuilds) {
 
 // How far two runs of one scene ended apart: the largest difference, body by body (matched by
 // id), of the position (minimum image), axis, velocity and angular velocity.
-double largest_difference(const Simulation &a, const Simulation &b) {
+double largest_difference(const System &a, const System &b) {
   const Particles &p = a.particles(), &q = b.particles();
   const Box &box = a.scene().box;
   const Vec3 inverse = box.inverse_length();
@@ -132,7 +132,7 @@ TEST(ExactStep, TheTrajectoryDoesNotDependOnTheStep) {
       s.method = method;
       s.dt = dt;
       s.skin = 1.0;
-      auto sim = std::make_unique<Simulation>(s);
+      auto sim = std::make_unique<System>(s);
       sim->advance(static_cast<long long>(std::lround(0.2 / dt)));
       totals = sim->take_interval();
       return sim;
@@ -169,10 +169,10 @@ TEST(ExactStep, OverlappingRecedingStartPartsWithoutFallback) {
   bodies.set_position(1, bodies.position(0) + Vec3{0.9999, 0.0, 0.0});
   bodies.set_velocity(0, {-1.0, 0.0, 0.0});
   bodies.set_velocity(1, {1.0, 0.0, 0.0});
-  Simulation sim(scene, bodies);
+  System sim(scene, bodies);
   sim.advance(50);
-  EXPECT_EQ(sim.exact_record().totals.fallbacks, 0);
-  EXPECT_LE(sim.exact_record().totals.events, 1000);
+  EXPECT_EQ(testing::exact_record(sim).totals.fallbacks, 0);
+  EXPECT_LE(testing::exact_record(sim).totals.events, 1000);
   EXPECT_GT(smallest_gap(sim), -1e-9);
 }
 
@@ -184,7 +184,7 @@ TEST(ExactStep, AFlightBeyondTheSkinIsRefusedByName) {
   for (const int side : {6, 16}) {
     Scene scene = exact(testing::hard_spheres(side, 0.3, 2e-3));
     scene.skin = 0.002;
-    Simulation sim(scene);
+    System sim(scene);
     try {
       sim.advance(10);
       FAIL() << "no error, " << scene.n << " bodies";
@@ -200,7 +200,7 @@ TEST(ExactStep, AFlightBeyondTheSkinIsRefusedByName) {
   scene.skin = 0.5;
   Particles bodies = initial_bodies(scene);
   bodies.set_velocity(7, {150.0, 0.0, 0.0});
-  Simulation sim(scene, bodies);
+  System sim(scene, bodies);
   try {
     sim.advance(1);
     FAIL() << "no error for a runaway";
@@ -212,7 +212,7 @@ TEST(ExactStep, AFlightBeyondTheSkinIsRefusedByName) {
 // A NaN velocity stops the run at the next step, naming it, instead of flying on.
 TEST(ExactStep, ANaNVelocityStopsTheRun) {
   Scene scene = exact(testing::hard_spheres(6, 0.3, 1e-3));
-  Simulation sim(scene);
+  System sim(scene);
   sim.advance(5);
   sim.particles().vx[7] = std::nan("");
   try {
@@ -250,10 +250,10 @@ TEST(ExactStep, AFlightBeyondTheSkinWithinAStepRebuildsAndSolvesAgain) {
     b.set_position(1, {11 + 2 * t_hit, 10 + 2 * t_hit, 10});
     b.set_velocity(1, {-2, 0, 0});
     b.set_axis(1, {1, 0, 0});
-    Simulation sim(s, b);
+    System sim(s, b);
     sim.advance(20);
-    rebuilt = sim.exact_record().rebuilt_in_step;
-    EXPECT_EQ(sim.exact_record().totals.collisions, 1);
+    rebuilt = testing::exact_record(sim).rebuilt_in_step;
+    EXPECT_EQ(testing::exact_record(sim).totals.collisions, 1);
     EXPECT_NEAR(sim.particles().vx[sim.particles().id[0] == 0 ? 0 : 1], -2.0, 1e-9);
     return sim.state_checksum();
   };

@@ -15,12 +15,12 @@
 // by |w|). Every term is concave in s >= 0 (-|linear|, -s^2, -s^3), so L is concave there,
 // {L > 0} is one interval [0, s*), a chord between a point with L > 0 and one with L <= 0
 // meets zero before s*, and a tangent (supergradient) at a point beyond s* meets zero after it.
-#include "kernels/contact_time.hpp"
+#include "kernels/exact/contact_time.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "kernels/gap_bound.hpp"
+#include "kernels/exact/gap_bound.hpp"
 
 namespace hardrod {
 namespace {

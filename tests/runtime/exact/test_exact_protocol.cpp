@@ -4,7 +4,7 @@
 
 #include <cstring>
 
-#include "runtime/exact_protocol.hpp"
+#include "runtime/exact/exact_protocol.hpp"
 
 namespace hardrod {
 namespace {

@@ -2,7 +2,7 @@
 // event-driven pass through one cluster, the check that no cluster's overrun reaches another,
 // and the fallback for a cluster past the event cap; the entry points, which hand a step to the
 // one queue (exact_queue.cpp) when asked.
-#include "kernels/exact_collisions.hpp"
+#include "kernels/exact/exact_collisions.hpp"
 
 #include <omp.h>
 
@@ -13,7 +13,7 @@
 #include <limits>
 
 #include "kernels/contact_detection.hpp"
-#include "kernels/exact_events.hpp"
+#include "kernels/exact/exact_events.hpp"
 #include "kernels/union_find.hpp"
 
 namespace hardrod {

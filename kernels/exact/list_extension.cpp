@@ -1,5 +1,5 @@
 // A neighbour list extended body by body (list_extension.hpp).
-#include "kernels/list_extension.hpp"
+#include "kernels/exact/list_extension.hpp"
 
 #include <algorithm>
 #include <array>
@@ -30,8 +30,10 @@ struct ExtensionScratch {
 
 class Extension {
  public:
-  Extension(NeighborList &list, const Box &box, const Shape &shape, ExtensionScratch &scratch)
+  Extension(NeighborList &list, const ListExtension &ext, const Box &box, const Shape &shape,
+            ExtensionScratch &scratch)
       : list_(list),
+        ext_(ext),
         box_(box),
         inverse_(box.inverse_length()),
         shape_(shape),
@@ -48,13 +50,13 @@ class Extension {
     mark_partners(a);
     found_.clear();
     const double half = 0.5 * list_.skin, D = shape_.diameter, h = shape_.half_length();
-    const auto &at = list_.built;
+    const auto &at = ext_.built;
     const Vec3 xa{at.x[a], at.y[a], at.z[a]};
     const Vec3 ea = h > 0.0 ? Vec3{at.ex[a], at.ey[a], at.ez[a]} : Vec3{};
     gather_nearby(a, shape_.length + D + reach + largest);
     for (const std::uint32_t b : nearby_) {
       if (b == a || mark_[b] == tag_) continue;
-      const double limit = D + reach + (half + list_.extra_reach[b]) + kDistanceSafetyMargin;
+      const double limit = D + reach + (half + ext_.extra_reach[b]) + kDistanceSafetyMargin;
       const Vec3 r = box_.minimum_image(Vec3{at.x[b], at.y[b], at.z[b]} - xa, inverse_);
       const double centre2 = norm2(r);
       if (!(centre2 < (shape_.length + limit) * (shape_.length + limit))) continue;
@@ -83,7 +85,7 @@ class Extension {
   // bodies are one index range, cells.order the identity).
   void gather_nearby(std::uint32_t a, double distance) {
     const CellList &cl = list_.cells;
-    const auto &at = list_.built;
+    const auto &at = ext_.built;
     const double centre[3] = {at.x[a], at.y[a], at.z[a]};
     const double side[3] = {box_.length.x, box_.length.y, box_.length.z};
     for (int k = 0; k < 3; ++k) {
@@ -145,6 +147,7 @@ class Extension {
   }
 
   NeighborList &list_;
+  const ListExtension &ext_;
   const Box &box_;
   Vec3 inverse_;
   const Shape &shape_;
@@ -155,9 +158,9 @@ class Extension {
 
 // The bodies of [0, n) within `lead` of their reach, into `due`: flagged in vector
 // lanes, then listed eight flags at a time past the clear ones (a few in thousands are due).
-void list_due(const NeighborList &list, const double *bound, std::size_t n, double lead,
-              ExtensionScratch &scratch) {
-  const double half = 0.5 * list.skin, *extra = list.extra_reach.data();
+void list_due(const NeighborList &list, const ListExtension &ext, const double *bound,
+              std::size_t n, double lead, ExtensionScratch &scratch) {
+  const double half = 0.5 * list.skin, *extra = ext.extra_reach.data();
   std::vector<std::uint8_t> &flag = scratch.flag;
   flag.resize(n + 8);
   std::fill(flag.begin() + static_cast<long>(n), flag.end(), 0);
@@ -177,19 +180,34 @@ void list_due(const NeighborList &list, const double *bound, std::size_t n, doub
 
 }  // namespace
 
-bool extend_neighbor_list(NeighborList &list, const Particles &p, const Box &box,
-                          const Shape &shape, double lead, long long budget) {
+void start_extension(ListExtension &ext, const NeighborList &list, const Particles &p,
+                     std::size_t owned, const Shape &shape) {
+  const bool keep = list.bodies == owned, axes = keep && !shape.is_sphere();
+  const std::size_t n = list.active;
+  const auto copy = [n](std::vector<double> &to, const std::vector<double> &from, bool kept) {
+    to.assign(from.begin(), from.begin() + static_cast<long>(kept ? n : 0));
+  };
+  auto &b = ext.built;
+  copy(b.x, p.x, keep), copy(b.y, p.y, keep), copy(b.z, p.z, keep);
+  copy(b.ex, p.ex, axes), copy(b.ey, p.ey, axes), copy(b.ez, p.ez, axes);
+  ext.extra_reach.assign(keep ? n : 0, 0.0);
+  ext.largest_extra = 0.0;
+  ext.extended = 0;
+}
+
+bool extend_neighbor_list(NeighborList &list, ListExtension &ext, const Particles &p,
+                          const Box &box, const Shape &shape, double lead, long long budget) {
   const std::size_t n = list.active;
   if (n != list.bodies || list.cells.order.size() != n || list.pairs_end.size() != n ||
-      list.extra_reach.size() != n || list.built.x.size() != n)
+      ext.extra_reach.size() != n || ext.built.x.size() != n)
     return false;
   const double half = 0.5 * list.skin, *bound = p.motion_bound.data();
   thread_local ExtensionScratch scratch;
-  list_due(list, bound, n, lead, scratch);
+  list_due(list, ext, bound, n, lead, scratch);
   const std::vector<std::uint32_t> &due = scratch.due;
   const auto count = static_cast<long long>(due.size());
   if (count == 0) return true;
-  if (list.extended + count > budget) return false;
+  if (ext.extended + count > budget) return false;
   // A body whose step alone takes half the skin, or whose bound passed twice the skin, is a
   // runaway, not the tail: the build takes it (and refuses such a step by name).
   const double *grow = p.grow.data();
@@ -198,16 +216,16 @@ bool extend_neighbor_list(NeighborList &list, const Particles &p, const Box &box
         list.cells.order[b] != b)
       return false;
   for (const std::uint32_t b : due) {
-    double &e = list.extra_reach[b];
+    double &e = ext.extra_reach[b];
     while (!(bound[b] + lead < half + e)) e += half;
-    list.largest_extra = std::max(list.largest_extra, e);
+    ext.largest_extra = std::max(ext.largest_extra, e);
   }
-  Extension extension(list, box, shape, scratch);
+  Extension extension(list, ext, box, shape, scratch);
   const auto listed = static_cast<std::uint32_t>(list.pair_count());
   for (const std::uint32_t b : due)
-    extension.extend(b, half + list.extra_reach[b], half + list.largest_extra);
-  list.extended += count;
-  list.extensions += count;
+    extension.extend(b, half + ext.extra_reach[b], half + ext.largest_extra);
+  ext.extended += count;
+  ext.extensions += count;
   list.watching = false;
   if (list.near.valid)  // the new pairs are due: near ones, after the others in list order
     for (auto k = listed; k < list.pair_count(); ++k) list.near.index.push_back(k);

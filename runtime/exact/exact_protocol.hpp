@@ -1,7 +1,7 @@
 // The exact method's clusters across ranks, without MPI: what ranks tell each other of the
 // clusters whose bodies live on several ranks (pieces and results), their wire format, the
 // clusters found in merged pieces and the scratch problem that solves them.
-// Simulation::collide_on_ranks (runtime/exact_ranks.cpp) runs the exchanges.
+// ExactStep::collide_on_ranks (runtime/exact/exact_ranks.cpp) runs the exchanges.
 //
 // A cluster's *edges* are its candidates (listed pairs that could touch in the step) and its
 // joins (pairs whose bodies' overruns could reach each other, agreed in earlier rounds). Every
@@ -20,10 +20,10 @@
 
 #include "kernels/box.hpp"
 #include "kernels/contact.hpp"
-#include "kernels/exact_collisions.hpp"
+#include "kernels/exact/exact_collisions.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/particles.hpp"
-#include "runtime/cluster_protocol.hpp"
+#include "runtime/body_wire.hpp"
 
 namespace hardrod {
 

@@ -1,5 +1,5 @@
-// Starting a run from a frame of a GSD file in HOOMD's schema (runtime/hoomd_gsd.hpp): the
-// frame's reading and checks, and the start's checks against the scene.
+// A frame of a GSD file in HOOMD's schema read as hardrod's bodies (runtime/hoomd_gsd.hpp), with
+// the file's own checks; a start's checks against the scene are runtime/start.cpp's.
 #include <fmt/format.h>
 
 #include <cmath>
@@ -7,7 +7,6 @@
 #include <optional>
 #include <stdexcept>
 
-#include "kernels/initial_state.hpp"
 #include "runtime/gsd_reader.hpp"
 #include "runtime/hoomd_gsd.hpp"
 
@@ -139,35 +138,6 @@ GsdFrame read_gsd_frame(const std::string &path, long long frame, const Shape &s
 
 bool is_gsd_path(const std::string &path) {
   return std::filesystem::path(path).extension() == ".gsd";
-}
-
-Particles start_from_gsd(const Scene &scene) {
-  const std::string key = fmt::format("init.file = \"{}\"", scene.init_file);
-  GsdFrame f;
-  try {
-    f = read_gsd_frame(scene.init_file, scene.init_frame, scene.shape);
-  } catch (const std::runtime_error &e) {
-    throw SceneError({fmt::format("{}: {}", key, e.what())});
-  }
-  if (static_cast<long long>(f.bodies.size()) != scene.n)
-    throw SceneError({fmt::format("{}: frame {} holds {} particles, system.n = {}", key, f.frame,
-                                  f.bodies.size(), scene.n)});
-  const Vec3 &a = f.box.length, &b = scene.box.length;
-  // The file's box is 32-bit: it must be the scene's rounded to float.
-  if (a.x != static_cast<float>(b.x) || a.y != static_cast<float>(b.y) ||
-      a.z != static_cast<float>(b.z))
-    throw SceneError({fmt::format(
-        "{}: frame {}: box {} x {} x {}, the scene's is {} x {} x {} (system.box or the density)",
-        key, f.frame, a.x, a.y, a.z, b.x, b.y, b.z)});
-  Particles &p = f.bodies;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const std::array<int, 3> &m = f.image[i];
-    p.x[i] += m[0] * b.x;  // the scene's box, in double: the file's is rounded
-    p.y[i] += m[1] * b.y;
-    p.z[i] += m[2] * b.z;
-  }
-  if (!f.has_velocities) assign_velocities(p, scene.shape, scene.seed, scene.temperature);
-  return std::move(f.bodies);
 }
 
 }  // namespace hardrod

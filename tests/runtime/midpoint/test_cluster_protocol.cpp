@@ -11,7 +11,7 @@
 #include <set>
 #include <vector>
 
-#include "runtime/cluster_protocol.hpp"
+#include "runtime/midpoint/cluster_protocol.hpp"
 
 namespace hardrod {
 namespace {
