@@ -23,28 +23,6 @@ struct Contact {
   double impulse = 0.0;            // accumulated lambda >= 0 along the normal
 };
 
-// The exact method's candidate (contact_detection.hpp, StepAhead): a listed pair that could touch
-// within the step, with what its clusters read (exact_collisions.hpp). 40 bytes where a Contact
-// is 152: a step of hard spheres at N = 32768 writes, sorts and reads ~5000 of them.
-struct Candidate {
-  std::uint32_t i = 0, j = 0;  // local body indices, id[i] < id[j]
-  std::int64_t id_i = 0, id_j = 0;
-  double depth = 0.0;  // D - d at the step's start (negative: apart)
-  // The two free flights alone keep the pair apart all step: its first search would find nothing.
-  bool apart = false;
-  // Beyond the two free flights' reach, within the overrun allowance only (StepAhead::allowance):
-  // a partner for the one queue's predictions after a velocity changes, not a candidate of the
-  // free flights (apart too; not counted, and the clusters leave it out).
-  bool spare = false;
-  // Where apart (or a spare): a lower bound of the pair's surface gap less kApartMargin over the
-  // whole step along the two free flights (the screens' bound at its least, or a spare's
-  // distance beyond the flights' reach), rounded down to a float (beside the flags, the record
-  // stays 40 bytes); else 0. The one queue keeps the pair apart with it after a velocity
-  // changes, while it covers how far the new flights can stray (exact_queue.cpp).
-  float proven = 0.0f;
-};
-static_assert(sizeof(Candidate) == 40, "thousands a step are sorted and copied");
-
 // Canonical order of contacts (and candidates): by (id_i, id_j). Every rank and thread count
 // sees the same.
 inline constexpr struct CanonicalLess {

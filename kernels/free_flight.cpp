@@ -284,7 +284,7 @@ MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Sha
       list.builds > 0 && list.watching && list.active == count && list.bodies == p.size();
   MidpointDetection out;
   std::vector<double> largest(static_cast<std::size_t>(nthreads), 0.0);
-  WatchedDetection shared(watched ? nthreads : 0);
+  WatchedDetection shared(watched ? nthreads : 0, box, shape);
   bool expired = true;
   const auto t0 = std::chrono::steady_clock::now();
   std::chrono::steady_clock::time_point t1;
@@ -301,13 +301,13 @@ MidpointDetection advance_to_midpoint(Particles &p, std::size_t count, const Sha
     for (int t = 0; t < omp_get_num_threads(); ++t) all = std::max(all, largest[t]);
     const bool expired_here = neighbor_list_expired(list, all, list.bodies);
     if (tid == 0) expired = expired_here;
-    if (watched && !expired_here) detect_watched_in_team(p, box, shape, list, shared);
+    if (watched && !expired_here) detect_watched_in_team(p, list, shared);
   }
   out.largest_bound = *std::max_element(largest.begin(), largest.end());
   out.drift_nanoseconds = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
   if (watched && !expired) {
     out.detected = true;
-    out.stats = finish_watched_detection(p, box, shape, list, shared, contacts);
+    out.stats = finish_watched_detection(p, list, shared, contacts);
   }
   return out;
 }

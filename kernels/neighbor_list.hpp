@@ -81,9 +81,9 @@ static_assert(sizeof(ListedPair) == 16);
 
 // The listed pairs near to due, for the steps that pass over every pair (NeighborList::
 // watching false): made by such a pass, the pairs whose slack left, recheck_at less the two
-// bounds (and the spare, twice StepAhead's allowance), was below `reach`, in list order.
-// A pair left out can fall due only once its two bounds have grown by `reach` since, so the
-// next passes read these alone while twice the largest growth since (bound - base) stays
+// bounds (and the spare, twice the measure's allowance, kernels/pair_scan.hpp), was below `reach`,
+// in list order. A pair left out can fall due only once its two bounds have grown by `reach` since,
+// so the next passes read these alone while twice the largest growth since (bound - base) stays
 // below it. reach is kNearSteps times twice the largest per-step path then (2 grow). They pay
 // where that is a small part of the skin (the nematic: 0.13 D of 1 D; they hold 58 % of its
 // pairs and last ~7.5 steps; passing over every pair instead, the detection took 1.8x as long,

@@ -130,7 +130,7 @@ inline ContactTime first_contact(const Flight &a, const Flight &b, double h, dou
   return rod_contact(a, b, h, D, t_from, t_to, settings);
 }
 
-// The exact method's screen of its candidates (contact_detection.hpp, StepAhead): true when
+// The exact method's screen of its candidates (step_candidates.hpp, StepAhead): true when
 // the free flights of a and b alone (both from t0 = 0) keep their surfaces more than `margin`
 // apart over [0, t_to], proven by the bound of the search's first step, from the closest
 // points `c` of axes a.e, b.e at separation r = x_b - x_a (b's nearest image) that the caller

@@ -50,6 +50,7 @@
 #include "kernels/contact.hpp"
 #include "kernels/contact_resolution.hpp"
 #include "kernels/exact/contact_time.hpp"
+#include "kernels/exact/step_candidates.hpp"
 #include "kernels/exact_sum.hpp"
 #include "kernels/neighbor_list.hpp"
 #include "kernels/particles.hpp"

@@ -1,6 +1,7 @@
 // What the exact method's two ways through a step's events share (exact_collisions.hpp): the
-// clusters' passes (exact_collisions.cpp) and the one queue (exact_queue.cpp). Internal to
-// those two files.
+// clusters' passes (exact_clusters.cpp) and the one queue (exact_queue.cpp), the one core both
+// drive: events and their order, the bodies' flights and slots, the search of a pair's first
+// contact and the impulse when it touches. Internal to kernels/exact/.
 #pragma once
 
 #include <algorithm>
@@ -114,6 +115,32 @@ struct Context {
   double *overrun;
 };
 
+// What moves body b to its periodic image nearest body a at the step's start (the image does
+// not change within a step: the list's pairs are far shorter than half the box).
+inline Vec3 image_shift(const Context &cx, std::uint32_t a, std::uint32_t b) {
+  const Vec3 raw = cx.p.position(b) - cx.p.position(a);
+  return cx.box.minimum_image(raw, cx.inverse) - raw;
+}
+
+// The first contact from t of flight fa and flight fb moved by `shift` (fa's body has the lower
+// id), counted in `stats` (`again`: after a velocity changed). False where the pair cannot touch
+// in the step; else the event's time `at`, and `resume` where the search used up its iterations
+// and goes on from there.
+inline bool search_pair(const Context &cx, const Flight &fa, Flight fb, const Vec3 &shift, double t,
+                        bool again, ExactStats &stats, double &at, bool &resume) {
+  fb.x = fb.x + shift;
+  const ContactTime ct = first_contact(fa, fb, cx.shape.half_length(), cx.shape.diameter, t, cx.dt,
+                                       cx.settings.contact);
+  ++stats.searches;
+  stats.repredictions += again;
+  stats.root_iterations += ct.iterations;
+  if (!ct.found && ct.converged) return false;
+  stats.unconverged += !ct.converged;
+  at = ct.t;
+  resume = !ct.found;
+  return true;
+}
+
 // Candidate::apart holds: the detection's margin is above the search's tolerance.
 inline bool screened(const ExactSettings &settings) {
   return settings.contact.tolerance < kApartMargin;
@@ -172,6 +199,17 @@ inline Touch give_impulse(Flight &fa, Flight &fb, const Vec3 &xb, const Shape &s
   out.closing = true;
   out.virial = j * dot(c.normal, fa.x - xb);
   return out;
+}
+
+// After a graze at t (the search saw the pair closing, the impulse's geometry, rounded
+// differently, does not; nothing changed): the time `from` the pair is searched again, a moment
+// later, so that a pass always moves on (the gap can shrink by at most ~1e-12 D meanwhile).
+// False for a pair that overlaps already (a start file from the midpoint method) and recedes:
+// it is left to part.
+inline bool search_after_graze(const Context &cx, const Touch &touch, double t, double &from) {
+  if (!(touch.gap > -cx.settings.contact.tolerance)) return false;
+  from = std::min(cx.dt, t + 1e-9 * cx.dt);
+  return true;
 }
 
 // A flight flown on to time t (it then starts there), with the bound on how far any point of
@@ -283,5 +321,16 @@ inline bool overrun_could_touch(const Particles &p, const Box &box, const Vec3 &
 bool solve_in_one_queue(const Context &cx, const std::vector<Candidate> &candidates,
                         const std::vector<BodyPair> &joins, bool confined, ExactScratch &scratch,
                         ExactStats &stats, std::vector<FlownBody> &flown);
+
+// The step by clusters (exact_clusters.cpp): the clusters of the candidates (no spares) and
+// `joins`, each solved by its own pass, their counts added to `stats` and their flown bodies to
+// `flown`. With `regrow`, clusters whose overruns could reach each other are joined and solved
+// again until none can (one rank's whole step); without, once (several ranks: the caller
+// checks the overruns).
+void solve_by_clusters(const Particles &p, const Box &box, const Shape &shape,
+                       const NeighborList &list, const std::vector<Candidate> &candidates,
+                       const std::vector<BodyPair> &joins, double dt, const ExactSettings &settings,
+                       bool regrow, ExactScratch &scratch, ExactStats &stats,
+                       std::vector<FlownBody> &flown);
 
 }  // namespace hardrod::exact_events

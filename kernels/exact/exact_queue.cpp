@@ -127,36 +127,25 @@ class StepPass {
     return s == kNone ? start_flight(cx_->p, b, turns_) : slots_.flight[s];
   }
 
-  // What moves body b to its periodic image nearest a at the step's start, and b's flight there.
-  Vec3 shift(std::uint32_t a, std::uint32_t b) const {
-    const Vec3 raw = cx_->p.position(b) - cx_->p.position(a);
-    return cx_->box.minimum_image(raw, cx_->inverse) - raw;
-  }
-  Flight image_of(std::uint32_t a, std::uint32_t b) const {
-    Flight f = flight(b);
-    f.x = f.x + shift(a, b);
-    return f;
-  }
-
-  // As ClusterPass::predict, for bodies a and b, a with the lower id.
+  // The first contact of bodies a and b (a with the lower id) from t, queued if there is one in
+  // the step.
   void predict(std::uint32_t a, std::uint32_t b, double t, bool again) {
-    const ContactTime ct = first_contact(flight(a), image_of(a, b), cx_->shape.half_length(),
-                                         cx_->shape.diameter, t, cx_->dt, cx_->settings.contact);
-    ++stats_.searches;
-    stats_.repredictions += again;
-    stats_.root_iterations += ct.iterations;
-    if (!ct.found && ct.converged) return;
-    stats_.unconverged += !ct.converged;
-    queue_.push({ct.t, cx_->p.id[a], cx_->p.id[b], a, b, version(a), version(b), !ct.found});
+    double at = 0.0;
+    bool resume = false;
+    if (!search_pair(*cx_, flight(a), flight(b), image_shift(*cx_, a, b), t, again, stats_, at,
+                     resume))
+      return;
+    queue_.push({at, cx_->p.id[a], cx_->p.id[b], a, b, version(a), version(b), resume});
   }
 
-  // Bodies a and b (slots sa, sb; a has the lower id) touching at t: as ClusterPass::collide.
+  // Bodies a and b (slots sa, sb; a has the lower id) touching at t: the impulse, then, where
+  // the pair closed, every partner of the two searched again (unless its proof still holds).
   void collide(std::uint32_t a, std::uint32_t b, std::uint32_t sa, std::uint32_t sb, double t) {
     const Flight before_a = slots_.flight[sa], before_b = slots_.flight[sb];
-    const Touch touch = slots_.collide(sa, sb, t, shift(a, b), cx_->shape, stats_);
+    const Touch touch = slots_.collide(sa, sb, t, image_shift(*cx_, a, b), cx_->shape, stats_);
     if (!touch.closing) {
-      if (touch.gap > -cx_->settings.contact.tolerance)
-        predict(a, b, std::min(cx_->dt, t + 1e-9 * cx_->dt), true);
+      double from = 0.0;
+      if (search_after_graze(*cx_, touch, t, from)) predict(a, b, from, true);
       return;
     }
     check_overrun(a, sa, t);

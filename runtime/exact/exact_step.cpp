@@ -142,7 +142,7 @@ DetectionStats ExactStep::collide(System &sys, ExactStats &stats) {
     {
       ScopedRegion r(sys.timers(), Region::kDetect);
       const StepAhead ahead{p.grow.data(), scene.dt, ranks > 1, settings_.overrun_allowance};
-      detected = detect_contacts(p, scene.box, scene.shape, list, candidates_, ahead);
+      detected = detect_candidates(p, scene.box, scene.shape, list, candidates_, ahead);
       sys.note_detection(detected);
     }
     double reach = 0.0;

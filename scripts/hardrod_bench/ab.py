@@ -29,7 +29,8 @@ from .versus import RELAX_DT, SYSTEMS, anchor_build, anchor_scene, exact_sets
 HELP = "two builds side by side, one core each (A/B of a change on a noisy machine)"
 DESCRIPTION = ("Run build A (--base REV, built from `git archive`, or --binary) and build B "
                "(build/hardrod, or a second --binary) at the same time on two cores, swapped each "
-               "round, from one relaxed state (the exact nematic or hard spheres at N = 32768); "
+               "round, from one relaxed state (the everyday nematic or hard spheres at N = 32768), "
+               "with either step method; "
                "report B/A of the step, of each region over its own list-build time and of each "
                "region's seconds, per round and as medians, and whether the checksums agree. "
                "Writes ab.csv, ab.json, report.md.")
@@ -46,11 +47,15 @@ def add_arguments(sp):
                          "(default B: build/hardrod)")
     sp.add_argument("--system", default="nematic", choices=sorted(SYSTEMS),
                     help="the everyday nematic (default) or hard spheres at N = 32768")
+    sp.add_argument("--method", default="exact", choices=("exact", "midpoint"),
+                    help="the step method both builds run (default exact)")
     sp.add_argument("--config", default="",
-                    help="the exact method's dt:skin (default: nematic 1e-3:1.0, spheres 4e-3:0.5)")
+                    help="dt:skin (default: the exact method's nematic 1e-3:1.0, spheres 4e-3:0.5; "
+                         "the midpoint method's 1e-4:0.3 for both)")
     sp.add_argument("--rounds", type=int, default=6, help="rounds (default 6)")
     sp.add_argument("--tau", type=float, default=None,
-                    help="simulated time of each run (default: nematic 3 tau, spheres 1 tau)")
+                    help="simulated time of each run (default: nematic 3 tau, spheres 1 tau; the "
+                         "midpoint method a tenth of those)")
     sp.add_argument("--start", default="",
                     help="an H5MD trajectory to start from (default: relax the system first, as "
                          "`scripts/bench versus` does)")
@@ -73,11 +78,27 @@ def builds(args):
     return a, b
 
 
+# The midpoint method's default dt:skin (its recommended dt) and its share of the exact method's
+# default simulated time (its steps are ten times as many per tau).
+MIDPOINT_CONFIG = "1e-4:0.3"
+MIDPOINT_TAU_SHARE = 0.1
+
+
+def method_sets(method, dt, skin, steps):
+    """--set values of one run of `method`."""
+    if method == "exact":
+        return exact_sets(dt, skin, steps)
+    return {"run.method": '"midpoint"', "run.dt": repr(dt), "run.skin": repr(skin),
+            "run.steps": str(steps), "run.equilibration_steps": "0"}
+
+
 def plan(args, system, a, b, start, out):
     """Per round the run of A and the run of B, with the cores they are pinned to."""
-    dt, skin = (float(x) for x in (args.config or system["configs"].split(",")[0]).split(":"))
-    tau = args.tau or {"nematic": 3.0, "spheres": 1.0}[args.system]
-    sets = {**system["sets"], **file_start(start), **exact_sets(dt, skin, round(tau / dt))}
+    default = system["configs"].split(",")[0] if args.method == "exact" else MIDPOINT_CONFIG
+    dt, skin = (float(x) for x in (args.config or default).split(":"))
+    tau = args.tau or ({"nematic": 3.0, "spheres": 1.0}[args.system] *
+                       (1.0 if args.method == "exact" else MIDPOINT_TAU_SHARE))
+    sets = {**system["sets"], **file_start(start), **method_sets(args.method, dt, skin, round(tau / dt))}
     sets.pop("init.lattice", None)
     side_by_side = (os.cpu_count() or 1) >= 2
     rounds = []
@@ -154,14 +175,14 @@ def analyse(rows):
 
 def report(args, out, rows, summary, same, a, b, side_by_side):
     write_csv(out / "ab.csv", rows, ["round", "build", *COLUMNS, "checksum", "error"])
-    write_json(out / "ab.json", {"system": args.system, "a": str(a), "b": str(b), "side_by_side": side_by_side,
+    write_json(out / "ab.json", {"system": args.system, "method": args.method, "a": str(a), "b": str(b), "side_by_side": side_by_side,
                                  "same_checksum": same, "rows": rows, "summary": summary})
     table = markdown_table(["measure", "A (median)", "B (median)", "B / A (median of rounds)", "rounds B lower"],
                            [[s["measure"], g(s["median_a"]), g(s["median_b"]), g(s["median_ratio"]),
                              f"{s['b_lower']} of {s['rounds']}"] for s in summary])
     how = ("side by side, one core each, swapped each round" if side_by_side else
            "in turns (fewer than two cores)")
-    text = (f"{args.system}: A = {relpath(a)}, B = {relpath(b)}, {args.rounds} rounds {how}. "
+    text = (f"{args.system}, {args.method} method: A = {relpath(a)}, B = {relpath(b)}, {args.rounds} rounds {how}. "
             f"The checksums {'agree' if same else 'differ'}.")
     write_text(out / "report.md", "\n".join([report_header("Two builds side by side"), text, "", table, ""]))
     print(table)

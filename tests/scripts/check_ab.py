@@ -58,6 +58,14 @@ def flags():
         check(all("system.n=32768" in l for l in lines) and "run.dt=0.004" in lines[1] and
               "run.skin=0.5" in lines[1] and "relax/trajectory.h5" in lines[1],
               "spheres at N = 32768, dt 4e-3, skin 0.5, from the relaxed state")
+        status, text = run_cli(["ab", "--dry-run", "--rounds", "1", "--method", "midpoint", "--start", str(start),
+                                *builds, *results])
+        lines = [l for l in text.splitlines() if l.startswith("(dry run)")]
+        check(status == 0 and len(lines) == 2 and all("run.method=\"midpoint\"" in l or "run.method=midpoint" in l
+                                                       for l in lines),
+              f"--method midpoint runs the midpoint method in both builds ({lines})")
+        check(all("run.dt=0.0001" in l and "run.steps=3000" in l for l in lines),
+              "the midpoint method at its dt 1e-4 for a tenth of the time (0.3 tau)")
         check(not any(pathlib.Path(tmp).glob("ab-*")), "the dry run writes nothing")
 
 

@@ -38,7 +38,7 @@ Step exact_step(Particles &p, const Box &box, const Shape &shape, double dt,
   grow_bounds(p, p.size());
   std::vector<Candidate> candidates;
   const StepAhead ahead{p.grow.data(), dt};
-  detect_contacts(p, box, shape, list, candidates, ahead);
+  detect_candidates(p, box, shape, list, candidates, ahead);
   ExactScratch scratch;
   Step s;
   s.stats = collide_exactly(p, box, shape, list, candidates, dt, settings, scratch, s.flown);
@@ -279,7 +279,7 @@ TEST(ExactCollisions, RoundsOfOnePassAndJoinsEndWhereTheKernelsLoopEnds) {
     grow_bounds(p, p.size());
     std::vector<Candidate> candidates;
     const StepAhead ahead{p.grow.data(), c.dt};
-    detect_contacts(p, c.box, sphere, list, candidates, ahead);
+    detect_candidates(p, c.box, sphere, list, candidates, ahead);
     ExactScratch scratch;
     std::vector<FlownBody> kernel, rounds;
     const ExactStats whole =
@@ -336,9 +336,9 @@ TEST(ExactCollisions, TheCandidatesOrderDoesNotChangeTheStep) {
     grow_bounds(p, p.size());
     std::vector<Candidate> canonical, threads_order;
     NeighborList again = list;
-    detect_contacts(p, scene.box, scene.shape, list, canonical, StepAhead{p.grow.data(), dt});
-    detect_contacts(p, scene.box, scene.shape, again, threads_order,
-                    StepAhead{p.grow.data(), dt, false});
+    detect_candidates(p, scene.box, scene.shape, list, canonical, StepAhead{p.grow.data(), dt});
+    detect_candidates(p, scene.box, scene.shape, again, threads_order,
+                      StepAhead{p.grow.data(), dt, false});
     ASSERT_EQ(threads_order.size(), canonical.size());
     std::vector<Candidate> reversed(canonical.rbegin(), canonical.rend()), shuffled = canonical;
     std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(7));
@@ -415,7 +415,7 @@ TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
     grow_bounds(p, p.size());
     NeighborList list = built;
     std::vector<Candidate> candidates;
-    detect_contacts(p, c.box, c.shape, list, candidates, StepAhead{p.grow.data(), c.dt});
+    detect_candidates(p, c.box, c.shape, list, candidates, StepAhead{p.grow.data(), c.dt});
     ExactSettings by_cluster;
     by_cluster.events_per_body = c.events_per_body;
     ExactScratch scratch;
@@ -428,8 +428,8 @@ TEST(ExactCollisions, TheOneQueueEndsWhereTheClustersEnd) {
     for (const double allowance : {0.0, 1e-3 * c.dt, 0.1 * c.dt, 2.0 * c.dt}) {
       NeighborList own = built;
       std::vector<Candidate> found;
-      detect_contacts(p, c.box, c.shape, own, found,
-                      StepAhead{p.grow.data(), c.dt, true, allowance});
+      detect_candidates(p, c.box, c.shape, own, found,
+                        StepAhead{p.grow.data(), c.dt, true, allowance});
       ExactSettings in_queue = by_cluster;
       in_queue.one_queue = true;
       in_queue.overrun_allowance = allowance;

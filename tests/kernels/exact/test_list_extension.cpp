@@ -12,6 +12,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <string>
 #include <utility>
 
 #include "kernels/exact/list_extension.hpp"
@@ -167,7 +168,10 @@ TEST_P(ListExtension, NoPairLeftOutCanTouchWhileEachBoundIsBelowItsReach) {
   expect_index(s.list);
 }
 
-INSTANTIATE_TEST_SUITE_P(SpheresAndRods, ListExtension, ::testing::Values(0.0, 5.0));
+INSTANTIATE_TEST_SUITE_P(SpheresAndRods, ListExtension, ::testing::Values(0.0, 5.0),
+                         [](const ::testing::TestParamInfo<double> &info) {
+                           return info.param > 0.0 ? std::string("rods") : std::string("spheres");
+                         });
 
 TEST(ListExtensionLimits, PastItsBudgetOrWithShadowsNothingChanges) {
   Fluid s = built(0.0, 3);
