@@ -1,4 +1,4 @@
-// Checkpoints (issue 6): everything a run needs to continue exactly, in one HDF5 file.
+// Checkpoints: everything a run needs to continue exactly, in one HDF5 file.
 //
 // Layout (HDF5 with a 512-byte user block in front):
 //   user block: "hardrod checkpoint 1\nbytes <size>\nhash <16 hex>\n" — the size of the whole

@@ -1,5 +1,5 @@
 // A scene: everything a run needs, read from a TOML file plus command-line overrides.
-// The key names are the public interface (issue 2): [system], [init], [run], [output].
+// The key names are the public interface: [system], [init], [run], [output].
 // Every problem in a scene is collected and reported together, each naming key and value.
 #pragma once
 

@@ -97,7 +97,7 @@ void fourier_kmax_from_box(Scene &s) {
 
 using enum Type;
 
-// The public keys (issue 2) in canonical order, one entry each, the fields in the order of
+// The public keys in canonical order, one entry each, the fields in the order of
 // KeySpec. A default not given here is the initial value of the Scene member (scene.hpp).
 // clang-format off
 constexpr KeySpec kKeys[] = {

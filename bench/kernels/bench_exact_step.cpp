@@ -1,7 +1,7 @@
 // Whole time steps of the exact method (run.method = "exact", kernels/exact/exact_collisions.hpp)
 // on one thread unless asked: the everyday nematic (N = 2304, L/D = 5, rho* = 0.5) and hard spheres
-// at packing fraction 0.45 (N = 32768, the system of issue 20's event-driven reference: 23.5 us of
-// CPU per particle per tau), each from a state relaxed by the method itself, at several dt and
+// at packing fraction 0.45 (N = 32768, the system of the event-driven reference the speed goal is set
+// against), each from a state relaxed by the method itself, at several dt and
 // skins. Reports ns per particle-step, microseconds of CPU per particle per tau (the figure to set
 // against event-driven MD), the phases, and the method's work per step (collisions, searches, gap
 // evaluations per search, largest cluster). Relaxation before measuring, by the method itself at dt

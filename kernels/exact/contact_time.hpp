@@ -1,5 +1,5 @@
-// The exact first contact time of two capsules in free flight within a time step (issue 20,
-// run.method = "exact"): the kernel the event processing asks "when do these two first touch?".
+// The exact first contact time of two capsules in free flight within a time step
+// (run.method = "exact"): the kernel the event processing asks "when do these two first touch?".
 // Physics: each body translates uniformly and its axis turns about a fixed angular velocity
 // (a free linear rotor, docs/physics.md section 3). Spheres have a closed form; rods use
 // conservative advancement on a rigorous lower bound of the surface gap, so no contact is ever

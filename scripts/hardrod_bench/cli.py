@@ -13,7 +13,7 @@ USAGE = """hardrod benchmark harness: kernels, physics validation, speed/accurac
 
   scripts/bench kernels   [--filter RE] [--repetitions R] [--min-time S]
   scripts/bench instructions [--binary A --binary B] [--systems ...] [--cache-sim]   (callgrind)
-  scripts/bench versus    [--rounds R] [--configs dt:skin,...]   (issue 20's goal, in turns)
+  scripts/bench versus    [--rounds R] [--configs dt:skin,...]   (the speed goals, in turns)
   scripts/bench ab        --base REV | --binary A [--binary B] [--system nematic|spheres]   (side by side)
   scripts/bench edmd      --source DIR [--rounds R] [--dt DT --skin S]   (hard spheres against event-driven MD)
   scripts/bench validate  [--long | --strict] [--jobs J] [--threads T]

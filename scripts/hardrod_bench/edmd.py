@@ -1,7 +1,7 @@
 """`scripts/bench edmd`: hardrod's exact method against event-driven MD, side by side.
 
-Issue 20's first goal: hard spheres at packing fraction 0.45, one core, CPU per particle per tau
-at most that of event-driven MD. The anchor is Smallenburg's public event-driven code (Eur.
+The hard-sphere speed goal: at packing fraction 0.45 on one core, CPU per particle per tau at
+most that of event-driven MD. The anchor is Smallenburg's public event-driven code (Eur.
 Phys. J. E 45, 22 (2022); its `Single` variant: mdSingle.c, mdSingle.h, mt19937ar.c), which is
 not part of this repository: --source names a copy of it. Its settings are globals in the
 source; this harness sets them in a copy (an fcc start, packing fraction 0.45, N = 32000, and
@@ -26,7 +26,7 @@ from pathlib import Path
 from .common import (HARDROD, ROOT, common_arguments, ensure_built, g, make_outdir, markdown_table,
                      relpath, report_header, write_csv, write_json, write_text)
 
-HELP = "hard spheres against event-driven MD, side by side (issue 20's first goal)"
+HELP = "hard spheres against event-driven MD, side by side (the hard-sphere speed goal)"
 DESCRIPTION = ("Build Smallenburg's event-driven MD (--source: its Single variant) for a short "
                "and a long run, and run it and hardrod's exact method on hard spheres at packing "
                "fraction 0.45 at the same time, one core each, swapped each round; report each "

@@ -3,7 +3,7 @@
 Timings on a shared or throttled machine drift by tens of percent between runs, so a change
 worth a few percent cannot be told from noise by the clock. The instructions a step executes
 do not drift: this harness runs each system for a fixed number of steps under valgrind's
-callgrind, from a relaxed state, counting only inside Simulation::advance (not the set-up or
+callgrind, from a relaxed state, counting only inside System::advance (not the set-up or
 the output), and reports instructions per particle-step and the functions that execute them,
 for one build or two (`--binary A --binary B`: B against A). With `--cache-sim` it adds
 callgrind's simulated first-level and last-level data-cache read misses, which is where
@@ -35,7 +35,8 @@ DESCRIPTION = ("Run the exact hard spheres (N = 32768), the exact nematic and th
                "functions.csv, instructions.json, report.md.")
 
 DEFAULT_BUILD = ROOT / "build-callgrind"
-ADVANCE = "hardrod::Simulation::advance(long long)"
+# The time steps: the System's (and, for builds from before it, the Simulation's).
+ADVANCE = ("hardrod::System::advance(long long)", "hardrod::Simulation::advance(long long)")
 
 # name: scene, --set values, relaxation steps (a native run from the lattice, with the counted
 # run's values but for RELAX's), counted steps. The nematic relaxes 40 tau, from the lattice's
@@ -178,7 +179,7 @@ def merged(functions):
 
 def count(binary, system, out, steps, start, cache_sim, ll):
     profile = out / "callgrind.out"
-    argv = ["valgrind", "--tool=callgrind", f"--toggle-collect={ADVANCE}",
+    argv = ["valgrind", "--tool=callgrind", *[f"--toggle-collect={name}" for name in ADVANCE],
             f"--callgrind-out-file={profile}"]
     if cache_sim:
         argv += ["--cache-sim=yes", f"--LL={ll}"]
@@ -193,7 +194,7 @@ def count(binary, system, out, steps, start, cache_sim, ll):
                           capture_output=True, text=True).stdout
     events, totals, functions = parse_annotate(text)
     if totals is None or not totals[0]:
-        return {"error": f"nothing counted: {ADVANCE} is not in this build (inlined, as link-time "
+        return {"error": f"nothing counted: {ADVANCE[0]} is not in this build (inlined, as link-time "
                          "optimisation does; count a build without it)"}
     per = float(summary["n"]) * float(summary["steps_done"])
     return {"events": events, "per_particle_step": {e: t / per for e, t in zip(events, totals)},

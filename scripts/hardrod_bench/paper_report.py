@@ -10,7 +10,7 @@ import math
 import sys
 from pathlib import Path
 
-from .common import HARDROD
+from .common import HARDROD, ROOT, relpath
 from .outputs import analyze_runs, order_parameter_series
 from .stats import drift_check, mser_cut
 
@@ -41,14 +41,14 @@ def run_equilibration(run_dir):
     t_cut = t[cut] if cut < len(t) else float("nan")
     t_prod = next((ti for ti, p in zip(t, phase) if p == "production"), float("nan"))
     prod = [s for s, p in zip(S, phase) if p == "production"]
-    return {"run": str(run_dir), "mser_cut_tau": t_cut, "production_starts_tau": t_prod,
+    return {"run": relpath(run_dir), "mser_cut_tau": t_cut, "production_starts_tau": t_prod,
             "cut_inside_equilibration": bool(t_cut < t_prod), "drift": drift_check(prod)}
 
 
 def mean_series_cut(runs):
     """The MSER-5 cut of S(t) averaged over the seeds (same sampling times): the relaxation from
     the lattice is common to all seeds, their slow fluctuations average down."""
-    series_ = [order_parameter_series(r["run"]) for r in runs]
+    series_ = [order_parameter_series(ROOT / r["run"]) for r in runs]
     n = min(len(t) for t, _, _ in series_)
     if n == 0:
         return float("nan")
@@ -158,7 +158,7 @@ def plot_order_parameter(rows, out):
     for r in rows:
         runs = r["equilibration"]["runs"]
         for v in runs:
-            t, _, S = order_parameter_series(v["run"])
+            t, _, S = order_parameter_series(ROOT / v["run"])
             ax.plot(t, S, lw=0.5, label=f"N = {r['N']}" if v is runs[0] else None,
                     color="C0" if r["N"] == 18432 else "C1")
         ax.axvline(runs[0]["production_starts_tau"], color="grey", lw=0.8, ls="--")

@@ -1,7 +1,7 @@
-"""`scripts/bench versus`: the exact method's cost, in turns with the build issue 20's goals were set on.
+"""`scripts/bench versus`: the exact method's cost, in turns with the build its speed goals were set on.
 
-Issue 20 set its speed goals against figures measured on the day it was filed, with the commit
-before the exact method (654ed7a). The nematic: 0.05 ms of CPU per rod per tau on one core,
+The exact method's speed goals were set against figures measured with the commit before the
+exact method (654ed7a). The nematic: 0.05 ms of CPU per rod per tau on one core,
 against 0.21 ms for that build's midpoint method at dt 1e-4, so a ratio of 0.24. Hard spheres
 (N = 32768, packing fraction 0.45): event-driven MD's 23.5 us per particle per tau, against
 113.6 us for that build's midpoint method at dt 1e-4, a ratio of 0.21. That one is a proxy:
@@ -26,7 +26,7 @@ from .common import (HARDROD, ROOT, common_arguments, ensure_built, g, make_outd
                      report_header, write_csv, write_json, write_text)
 from .runner import Run, execute, file_start
 
-HELP = "issue 20's speed goals: the exact method in turns with the midpoint build they were set on"
+HELP = "the exact method's speed goals: in turns with the midpoint build they were set on"
 DESCRIPTION = ("Build the anchor commit (default 654ed7a, the midpoint method the goals were set "
                "against), relax the everyday nematic (or hard spheres, N = 32768) with the exact "
                "method, then run the anchor's midpoint method at dt 1e-4 and the exact method at "
@@ -38,7 +38,7 @@ RELAX_DT = 2e-3
 
 
 # Per system: scene, --set values of every run, the relaxation's skin, and the defaults of
-# --configs, --tau, --relax-tau, --goal and --anchor-cost (ms per particle per tau, issue 20).
+# --configs, --tau, --relax-tau, --goal and --anchor-cost (ms per particle per tau: the goals).
 SYSTEMS = {
     "nematic": {"scene": "scenes/everyday.toml", "sets": {}, "relax_skin": 1.0,
                 "configs": "1e-3:1.0,2e-3:1.0", "tau": 6.0, "relax_tau": 40.0,
@@ -71,7 +71,7 @@ def add_arguments(sp):
                          "tau, spheres 4 tau)")
     sp.add_argument("--anchor-dt", type=float, default=1e-4, help="the anchor's dt (default 1e-4)")
     sp.add_argument("--goal", type=float, default=None,
-                    help="the goal, ms per particle per tau (default: issue 20's, nematic 0.05, "
+                    help="the goal, ms per particle per tau (default: nematic 0.05, "
                          "spheres 0.0235)")
     sp.add_argument("--anchor-cost", type=float, default=None,
                     help="the anchor's cost when the goal was set, ms per particle per tau "

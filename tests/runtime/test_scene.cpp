@@ -378,7 +378,7 @@ TEST(Scene, BoxTooSmallForInteractionRange) {
             "(the minimum image must be unique)");
 }
 
-// A box the neighbour search cannot bin (issue 18: [1e9, 20, 20] ended in an unhandled
+// A box the neighbour search cannot bin ([1e9, 20, 20] once ended in an unhandled
 // exception) is a scene error naming the key, its value and the limit; so is the cube of a
 // vanishing density. The paper's largest box passes.
 TEST(Scene, BoxWithTooManyCells) {

@@ -97,7 +97,7 @@ TEST(SceneKeys, KeyTableDrivesReferenceOverridesAndWriter) {
   }
 }
 
-// The defaults of the keys a scene may leave out (the public defaults, issue 2).
+// The defaults of the keys a scene may leave out (the public defaults).
 TEST(SceneKeys, DefaultsOfAbsentKeys) {
   const Scene s = parse_scene(
       "[system]\nn = 2304\nreduced_density = 0.5\n[run]\ndt = 1e-4\n"

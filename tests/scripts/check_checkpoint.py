@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checkpoints and resume, end to end through the hardrod binary (issue 6 acceptance).
+"""Checkpoints and resume, end to end through the hardrod binary.
 
   resume    run 2000 steps straight; run 1000 then `hardrod resume DIR --set run.steps=2000`:
             the same state_checksum, observables, time series, trajectory, Frank and angular
@@ -11,7 +11,7 @@
             checkpoints of another run, bad resume overrides, malformed scene files and
             values past the step limits: each exits 2 with a clear message, and no file of
             the run directory changes. A second process in a run directory, a missing newest
-            checkpoint, a run without production samples (issue 18).
+            checkpoint, a run without production samples.
 
 Usage: check_checkpoint.py MODE HARDROD SOURCE_DIR [--mpirun MPIRUN]
 Needs h5py (Debian python3-h5py), hence run by /usr/bin/python3.

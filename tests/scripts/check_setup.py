@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The set-up before the first step, when things go wrong (issue 18):
+"""The set-up before the first step, when things go wrong:
 - a run that cannot get its memory (address space capped with RLIMIT_AS) ends with a clear
   message and exit status 70 and leaves no run directory (before: an unhandled
   std::bad_alloc, an abort trace);
