@@ -1,10 +1,9 @@
 // Short vector loops padded to whole vectors. GCC 12 sets a loop's vector width by its
 // narrowest type (with AVX-512: 16 lanes where it reads 32-bit indices, 64 where it writes
 // bytes) and runs the iterations past the last whole vector in a scalar remainder. The loops
-// that screen a batch's candidates (contact_detection.cpp) run a few dozen iterations, so most
-// of their time went to that remainder (perf: 94 % of refine_candidates' samples in scalar
-// code). Padded, every iteration runs in vector lanes. (The list build's exact tests of a
-// body's ~14 kept candidates, padded so, were no faster.)
+// that screen a batch's candidates (kernels/exact/step_candidates.cpp) run a few dozen
+// iterations, so most of their time went to that remainder. Padded, every iteration runs in
+// vector lanes.
 #pragma once
 
 #include <cstddef>

@@ -85,10 +85,9 @@ static_assert(sizeof(ListedPair) == 16);
 // in list order. A pair left out can fall due only once its two bounds have grown by `reach` since,
 // so the next passes read these alone while twice the largest growth since (bound - base) stays
 // below it. reach is kNearSteps times twice the largest per-step path then (2 grow). They pay
-// where that is a small part of the skin (the nematic: 0.13 D of 1 D; they hold 58 % of its
-// pairs and last ~7.5 steps; passing over every pair instead, the detection took 1.8x as long,
-// docs/performance.md); where it is more than
-// kNearSkinShare of the skin (hard spheres at dt 4e-3: 0.32 D of 0.5), the list goes without.
+// where that is a small part of the skin (the nematic at dt 1e-3: 0.13 D of 1 D); where it is
+// more than kNearSkinShare of the skin (hard spheres at dt 4e-3: 0.32 D of 0.5), they would
+// hold most pairs and last a few steps: the list goes without.
 inline constexpr double kNearSteps = 8.0;
 inline constexpr double kNearSkinShare = 0.5;
 struct NearPairs {
@@ -124,7 +123,7 @@ struct NeighborList {
   // Steps detected through the watches since the build, and builds left that skip arming
   // them: where they gave up at the first step after a build (the exact method's bounds hold
   // a whole step's flight, so most bodies reach their watch at once), the next
-  // kUnarmedBuilds builds do not arm them (arm_watches is 2 % of the hard-sphere step), and
+  // kUnarmedBuilds builds do not arm them (arming is a pass over every pair for nothing), and
   // the one after tries again.
   long long watched_steps = 0;
   int unarmed_builds = 0;

@@ -36,8 +36,8 @@ SegmentClosest segment_closest(const Vec3 &r_ij, const Vec3 &e_i, double h_i, co
 // -r_ij normalised; else (coincident bodies) e_i x (coordinate axis least aligned with e_i).
 Vec3 contact_normal(const SegmentClosest &c, const Vec3 &r_ij, const Vec3 &e_i, const Vec3 &e_j);
 
-// The body of segment_closest, visible to hot traversals so it inlines: 5-10% faster than the
-// call in bench_segment_geometry, more when the caller reads only some fields (e.g. dist2).
+// The body of segment_closest, visible to hot traversals so it inlines (bench_segment_geometry
+// compares the two), the more so where the caller reads only some fields (e.g. dist2).
 // Bit-identical to segment_closest when compiled with the project's flags (no FMA
 // contraction, no fast-math); InlineAndOutOfLineAreBitIdentical checks it.
 inline SegmentClosest segment_closest_inline(const Vec3 &r_ij, const Vec3 &e_i, double h_i,

@@ -32,7 +32,7 @@ void System::check_balance() {
   const auto &grid = domain_.grid();
   double load = static_cast<double>(advanced());
   if (balance_.mode == BalanceMode::kTime) {
-    // Compute time: the free flight and the detection, ~90 % of a step and free of waits
+    // Compute time: the free flight and the detection, most of a step and free of waits
     // for other ranks (list builds, the thermostat and resolution include exchanges).
     const double busy = timers_.seconds(Region::kIntegrate) + timers_.seconds(Region::kDetect);
     load = std::max(0.0, busy - busy_mark_);

@@ -315,8 +315,8 @@ namespace {
 // The rows each rank writes, as one block of ids: every body goes to the rank whose block
 // [r n / P, (r + 1) n / P) holds its id (one message to every other rank, at a checkpoint
 // only). HDF5 then selects one hyperslab per rank. Rows as they fall after migration are
-// hundreds of short runs per rank, which HDF5 selects slowly either way (742 runs on each of
-// two ranks for the paper scene: 23 ms element by element, 48 ms as blocks).
+// hundreds of short runs per rank, which HDF5 selects slowly either way (element by element or
+// as blocks).
 Particles rows_by_id_block(Communicator &comm, const Particles &owned, std::size_t count,
                            long long n) {
   const int ranks = comm.size();

@@ -162,7 +162,7 @@ void System::redistribute() {
 }
 
 // Local index by id (for other ranks' results) and which bodies other ranks hold; one rank
-// needs neither (the map cost ~1 ms per rebuild of the paper scene).
+// needs neither (the map costs a hash insert per body and rebuild).
 void System::index_bodies() {
   index_.clear();
   shared_.assign(particles_.size(), 0);

@@ -64,10 +64,9 @@ bool lattice_start(const Scene &s) { return s.configuration == Configuration::kL
 bool file_start(const Scene &s) { return s.configuration == Configuration::kFile; }
 
 // The exact method's bounds grow by a whole step's flight at dt ~1e-3 before every step: a
-// wider skin rebuilds less often, a too wide one lists more pairs. Measured in turns
-// (docs/performance.md): the equilibrated nematic at dt 1e-3 costs 0.92x at 1.0 D what it
-// costs at 0.6 D (0.8 D more than 0.6, 1.3 D a little more than 1.0); hard spheres at 2e-3
-// cost the same from 0.3 to 0.6 D and 10 % more at 0.8 D.
+// wider skin rebuilds less often, a too wide one lists more pairs. The cheapest, measured in
+// turns (docs/performance.md): about 1.0 D for the nematic, anywhere from 0.3 to 0.6 D for
+// hard spheres.
 constexpr double kExactSkinRods = 1.0, kExactSkinSpheres = 0.6;
 void skin_for_method(Scene &s) {
   if (s.method == kExact) s.skin = s.shape_name == "sphere" ? kExactSkinSpheres : kExactSkinRods;

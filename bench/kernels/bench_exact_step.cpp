@@ -1,12 +1,12 @@
 // Whole time steps of the exact method (run.method = "exact", kernels/exact/exact_collisions.hpp)
-// on one thread unless asked: the everyday nematic (N = 2304, L/D = 5, rho* = 0.5) and hard spheres
-// at packing fraction 0.45 (N = 32768, the system of the event-driven reference the speed goal is set
-// against), each from a state relaxed by the method itself, at several dt and
-// skins. Reports ns per particle-step, microseconds of CPU per particle per tau (the figure to set
+// on one thread unless asked: the everyday nematic (N = 2304, L/D = 5, rho* = 0.5) and hard
+// spheres at packing fraction 0.45 (N = 32768, the system of the event-driven reference the speed
+// goal is set against), each from a state relaxed by the method itself, at several dt and skins.
+// Reports ns per particle-step, microseconds of CPU per particle per tau (the figure to set
 // against event-driven MD), the phases, and the method's work per step (collisions, searches, gap
-// evaluations per search, largest cluster). Relaxation before measuring, by the method itself at dt
-// 2e-3: the nematic 40 tau (from the lattice's S = 0.93 to the equilibrium's ~0.77; its step costs
-// ~1.1x more there than 1 tau from the lattice), the spheres 4 tau (the fcc lattice has melted).
+// evaluations per search, largest cluster). Relaxation before measuring, by the method itself at
+// dt 2e-3: the nematic 40 tau (from the lattice's S = 0.93 to the equilibrium's ~0.77, where a
+// step costs more than near the lattice), the spheres 4 tau (the fcc lattice has melted).
 // HARDROD_BENCH_RELAX_TAU sets both.
 #include <benchmark/benchmark.h>
 #include <omp.h>

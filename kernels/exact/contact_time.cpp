@@ -191,7 +191,7 @@ bool finite_state(const PairState &st) {
 // A step the bounds prove contact-free from the pair state, gap + margin > 0 on it: the fixed
 // normal's test at s_max first (cheap; it clears most steps of pairs that do not meet), then
 // the turning normal's step where a closest point is interior, else the fixed normal's. (The
-// larger of both steps saves under 1 % of the evaluations for 15 % more time.)
+// larger of both steps saves too few evaluations to pay for the second test.)
 SafeStep contact_free_step(const PairState &st, const Flight &a, const Flight &b, double h,
                            double margin, double s_max) {
   GapBound fixed = st.fixed;

@@ -32,8 +32,8 @@ struct Edge {
 };
 
 // Up to this many bodies a sphere cluster predicts a changed body against every other one
-// (predict_pairs_of). Hard spheres at packing fraction 0.45, N = 32768, in turns against the
-// walk: resolve 0.92x at 6, 0.89x at 12, 0.94x at 24 (the searches grow as its square).
+// (predict_pairs_of) rather than walk its listed pairs: a sphere's search is a closed form, but
+// their number grows as the cluster's square, and past about a dozen the walk is cheaper.
 constexpr std::size_t kAllSlots = 12;
 
 // One cluster's event-driven pass from the step's start to its end. One per thread, reused
@@ -313,9 +313,9 @@ Partition &step_partition() {
 // Below this many eventful clusters a step solves them on one thread: a parallel region costs
 // more than a few small clusters.
 constexpr long kParallelClusters = 32;
-// Below this many clusters, their overrun check (reaches) runs on one thread: everyday nematic
-// (N = 2304, ~240 clusters a step) slower on two threads than on one; the paper scene (N =
-// 18432, ~1600) 0.044 -> 0.032 s per 1000 steps.
+// Below this many clusters, their overrun check (reaches) runs on one thread: a parallel region
+// costs more than the check of a few hundred clusters (the everyday nematic's); the paper
+// scene's thousands gain.
 constexpr long kParallelChecks = 1024;
 
 // The state of cluster g's bodies asked from memory ahead of its pass: each body's twelve

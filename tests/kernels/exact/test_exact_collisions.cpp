@@ -24,7 +24,7 @@
 namespace hardrod {
 namespace {
 
-// One exact step of bodies p (list built here): what runtime/exact_step.cpp does on one rank.
+// One exact step of bodies p (list built here): what runtime/exact/exact_step.cpp does on one rank.
 struct Step {
   ExactStats stats;
   std::vector<FlownBody> flown;

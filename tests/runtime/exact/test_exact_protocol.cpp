@@ -1,4 +1,4 @@
-// The exact method's clusters across ranks without MPI (runtime/exact_protocol.hpp): pieces
+// The exact method's clusters across ranks without MPI (runtime/exact/exact_protocol.hpp): pieces
 // merged and their completeness, the wire format, the scratch problem and the results.
 #include <gtest/gtest.h>
 

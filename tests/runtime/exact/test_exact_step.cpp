@@ -1,4 +1,4 @@
-// The exact method's whole steps (run.method = "exact", runtime/exact_step.cpp): no pair ever
+// The exact method's whole steps (run.method = "exact", runtime/exact/exact_step.cpp): no pair ever
 // overlaps (checked against every pair, not the list), energy is conserved to round-off, and
 // the trajectory is the same bits for any thread count, and the same, to round-off, for any step.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
-// The spanning-cluster protocol (runtime/cluster_protocol.hpp) on synthetic records, without
-// MPI: the wire format round trip, the clusters found in merged records against a
+// The spanning-cluster protocol (runtime/midpoint/cluster_protocol.hpp) on synthetic records,
+// without MPI: the wire format round trip, the clusters found in merged records against a
 // brute-force connected components, their canonical order and completeness, and the scratch
 // problem a rank resolves.
 #include <gtest/gtest.h>
