@@ -28,6 +28,9 @@ def add_arguments(ba):
     ba.add_argument("--temperature", type=float, default=100.0, help="kT of the start (default 100)")
     ba.add_argument("--interval", type=int, default=1000, help="--balance-interval (default 1000)")
     ba.add_argument("--repeat", type=int, default=3, help="repeats (default 3)")
+    ba.add_argument("--method", default="midpoint", choices=("midpoint", "exact"),
+                    help="the step method (default midpoint)")
+    ba.add_argument("--dt", type=float, default=1e-4, help="the time step (default 1e-4)")
 
 
 def main(args):
@@ -36,7 +39,8 @@ def main(args):
     n = n_side ** 3
     if args.dry_run:
         print(f"(dry run) a one-step seed run of {n} spheres, its last frame squeezed into x < L/2, then "
-              f"{args.repeat} x (--balance off, bodies, time) on {args.ranks} ranks, {args.steps} steps each")
+              f"{args.repeat} x (--balance off, bodies, time) on {args.ranks} ranks, {args.steps} steps each, "
+              f"method {args.method}, dt {args.dt:g}")
         return 0
     out = make_outdir(args, "balance")
     ensure_built(args, [HARDROD])
@@ -61,7 +65,8 @@ def main(args):
     env = dict(mpi.ROOT_ENV)
     sets = {**base, "init.configuration": '"file"', "init.file": f'"{start.resolve()}"',
             "init.temperature": repr(args.temperature), "run.steps": str(args.steps),
-            "run.sample_interval": str(max(1, args.steps // 4))}
+            "run.sample_interval": str(max(1, args.steps // 4)),
+            "run.method": f'"{args.method}"', "run.dt": repr(args.dt)}
     prefix = mpi.prefix(args.ranks, bind=True, always=True)
     modes = ["off", "bodies", "time"]
     runs = [Run(f"{m}-r{rep}", scene, sets, 1, out / "runs" / f"{m}-r{rep}", env, prefix, {"mode": m, "n": n},
@@ -101,7 +106,8 @@ def main(args):
     same = (f"final states: identical checksums over all modes ({checksums[0]})" if len(checksums) == 1
             else f"final states DIFFER: {checksums}")
     notes = (f"{n} hard spheres (tests/parallel/gas.toml at kT = {g(args.temperature, 3)}), every centre squeezed into "
-             f"x < L/2 at the start, {args.steps} steps at dt = 1e-4 on {args.ranks} ranks cut along x; load checked "
+             f"x < L/2 at the start, {args.steps} steps of the {args.method} method at dt = {g(args.dt, 3)} on "
+             f"{args.ranks} ranks cut along x; load checked "
              f"every {args.interval} steps. {args.repeat} repeats, the three modes back to back in each. Imbalance: "
              f"the busiest rank's load above the mean at the first and the last check (advanced bodies for "
              f"'bodies', compute time for 'time'; off: not measured).")
