@@ -1,13 +1,16 @@
 // likwid-style region timers: named after the phases of the time step (integrate, detect,
 // resolve, neighbor_build, thermostat, observe, output, ...), accumulated as wall time and
 // call counts, printed as a table at the end of a run. A region is opened with
-// `ScopedRegion r(timers, Region::kDetect)`; the cost is two steady_clock reads.
+// `ScopedRegion r(timers, Region::kDetect)`; the cost is two reads of the program's clock
+// (perf/clock.hpp: the simulated time under SMPI).
 #pragma once
 
 #include <array>
 #include <chrono>
 #include <cstdint>
 #include <string>
+
+#include "perf/clock.hpp"
 
 namespace hardrod {
 
@@ -51,10 +54,10 @@ class RegionTimers {
 class ScopedRegion {
  public:
   ScopedRegion(RegionTimers &timers, Region region)
-      : timers_(timers), region_(region), start_(std::chrono::steady_clock::now()) {}
+      : timers_(timers), region_(region), start_(ProgramClock::now()) {}
   ~ScopedRegion() {
     timers_.add(region_, std::chrono::duration_cast<std::chrono::nanoseconds>(
-                             std::chrono::steady_clock::now() - start_)
+                             ProgramClock::now() - start_)
                              .count());
   }
   ScopedRegion(const ScopedRegion &) = delete;
@@ -63,7 +66,7 @@ class ScopedRegion {
  private:
   RegionTimers &timers_;
   Region region_;
-  std::chrono::steady_clock::time_point start_;
+  ProgramClock::time_point start_;
 };
 
 }  // namespace hardrod

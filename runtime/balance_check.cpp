@@ -9,21 +9,16 @@
 
 namespace hardrod {
 
-// Every rank holds all bodies at start: cuts that share them out evenly along each axis (a
-// few passes of the balancer on the slabs' counts; the same on every rank).
-Cuts System::starting_cuts(const Particles &all) const {
+// Cuts that share the bodies out evenly along each axis at the start (a few passes of the
+// balancer on the slabs' counts; the same on every rank).
+Cuts System::starting_cuts(const SlabCounts &counts) const {
   const auto &grid = domain_.grid();
   Cuts cuts = domain_.cuts();
-  const double *at[3] = {all.x.data(), all.y.data(), all.z.data()};
   const double sides[3] = {scene_.box.length.x, scene_.box.length.y, scene_.box.length.z};
   for (int pass = 0; pass < 4; ++pass)
     for (int a = 0; a < 3; ++a) {
       if (grid[a] < 2) continue;
-      std::vector<double> counts(static_cast<std::size_t>(grid[a]), 0.0);
-      for (std::size_t i = 0; i < all.size(); ++i)
-        counts[static_cast<std::size_t>(Domain::slab(cuts[a], Box::wrap(at[a][i], sides[a])))] +=
-            1.0;
-      cuts[a] = balanced_cuts(cuts[a], counts, 0.5 * sides[a] / grid[a]);
+      cuts[a] = balanced_cuts(cuts[a], counts(a, cuts[a]), 0.5 * sides[a] / grid[a]);
     }
   return cuts;
 }

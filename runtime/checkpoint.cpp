@@ -165,21 +165,38 @@ struct Writer {
   static constexpr std::size_t kMaxBlocks = 64;
 };
 
+// Parallel HDF5 writes one file from every rank (each its block of rows, collectively); the
+// serial library (the SMPI build: parallel HDF5 cannot run under SMPI) from rank 0 alone, which
+// then holds every row.
+#ifdef H5_HAVE_PARALLEL
+constexpr bool kParallelHdf5 = true;
+#else
+constexpr bool kParallelHdf5 = false;
+#endif
+
+// Writes the file: every rank (parallel HDF5, collective) or rank 0 alone (serial HDF5); the
+// problem found, if any, into `problem`.
 void write_hdf5(Communicator &comm, const fs::path &tmp, const Particles &owned, std::size_t count,
-                const Checkpoint &c, const std::array<hsize_t, 3> &text_sizes) {
+                const Checkpoint &c, const std::array<hsize_t, 3> &text_sizes,
+                std::string &problem) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // one clear message, not HDF5's error stack
   Writer w;
   w.path = tmp.string();
   Id create(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
   H5Pset_userblock(create, kUserBlock);
   Id access(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  H5Pset_fapl_mpio(access, MPI_COMM_WORLD, MPI_INFO_NULL);
   Id transfer(H5Pcreate(H5P_DATASET_XFER), H5Pclose);
+#ifdef H5_HAVE_PARALLEL
+  H5Pset_fapl_mpio(access, MPI_COMM_WORLD, MPI_INFO_NULL);
   H5Pset_dxpl_mpio(transfer, H5FD_MPIO_COLLECTIVE);
+#endif
   w.transfer = transfer;
   {
     Id file(H5Fcreate(w.path.c_str(), H5F_ACC_TRUNC, create, access), H5Fclose);
-    if (file < 0) throw CheckpointError(fmt::format("{}: cannot create", w.path));
+    if (file < 0) {
+      problem = "creating the file";
+      return;
+    }
     w.string_attribute(file, "format", kFormat);
     w.llong_attribute(file, "version", kCheckpointVersion);
     w.llong_attribute(file, "step", c.step);
@@ -214,10 +231,15 @@ void write_hdf5(Communicator &comm, const fs::path &tmp, const Particles &owned,
       w.rows(bodies, kVectors[e], H5T_NATIVE_DOUBLE, n, 3, ids, buffer.data());
     }
   }  // collective close: the file is complete on disk
-  const long long failed = comm.sum("checkpoint", w.problem.empty() ? 0LL : 1LL);
+  problem = w.problem;
+}
+
+// Collective: throws the first HDF5 problem of any rank, naming the file.
+void agree_on_writes(Communicator &comm, const fs::path &tmp, const std::string &problem) {
+  const long long failed = comm.sum("checkpoint", problem.empty() ? 0LL : 1LL);
   if (failed > 0)
-    throw CheckpointError(fmt::format("{}: HDF5 failed while {}", w.path,
-                                      w.problem.empty() ? "writing on another rank" : w.problem));
+    throw CheckpointError(fmt::format("{}: HDF5 failed while {}", tmp.string(),
+                                      problem.empty() ? "writing on another rank" : problem));
 }
 
 // ---- reading ------------------------------------------------------------------------------
@@ -312,24 +334,25 @@ std::uint64_t body_hash(const Particles &p) {
 
 namespace {
 
-// The rows each rank writes, as one block of ids: every body goes to the rank whose block
-// [r n / P, (r + 1) n / P) holds its id (one message to every other rank, at a checkpoint
-// only). HDF5 then selects one hyperslab per rank. Rows as they fall after migration are
-// hundreds of short runs per rank, which HDF5 selects slowly either way (element by element or
-// as blocks).
+// The rows each writing rank writes, as one block of ids: every body goes to the rank whose
+// block [r n / W, (r + 1) n / W) of the W = `writers` first ranks holds its id (one message to
+// every other writer, at a checkpoint only; W = 1: every row to rank 0). HDF5 then selects one
+// hyperslab per rank. Rows as they fall after migration are hundreds of short runs per rank,
+// which HDF5 selects slowly either way (element by element or as blocks).
 Particles rows_by_id_block(Communicator &comm, const Particles &owned, std::size_t count,
-                           long long n) {
-  const int ranks = comm.size();
+                           long long n, int writers) {
+  const int ranks = comm.size(), me = comm.rank();
   std::vector<std::vector<char>> out(static_cast<std::size_t>(ranks));
   for (std::size_t i = 0; i < count; ++i) {
     const long long id = owned.id[i];
-    const int r = id >= 0 && id < n ? static_cast<int>(id * ranks / n) : comm.rank();
+    const int r = id >= 0 && id < n ? static_cast<int>(id * writers / n) : std::min(me, writers - 1);
     pack_body(out[static_cast<std::size_t>(r)], owned, i);
   }
+  // Every rank sends to the writers, a writer hears from every rank.
   std::vector<int> partners;
   std::vector<std::vector<char>> outgoing;
   for (int r = 0; r < ranks; ++r)
-    if (r != comm.rank()) {
+    if (r != me && (r < writers || me < writers)) {
       partners.push_back(r);
       outgoing.push_back(std::move(out[static_cast<std::size_t>(r)]));
     }
@@ -431,12 +454,15 @@ void write_checkpoint(Communicator &comm, const fs::path &dir, const Particles &
     agree_on(comm, "");
   }
   try {
-    if (comm.size() > 1) {
-      const Particles rows = rows_by_id_block(comm, owned, count, contents.n);
-      write_hdf5(comm, tmp, rows, rows.size(), contents, sizes);
+    std::string problem;
+    if (comm.size() == 1) {
+      write_hdf5(comm, tmp, owned, count, contents, sizes, problem);
     } else {
-      write_hdf5(comm, tmp, owned, count, contents, sizes);
+      const int writers = kParallelHdf5 ? comm.size() : 1;
+      const Particles rows = rows_by_id_block(comm, owned, count, contents.n, writers);
+      if (comm.rank() < writers) write_hdf5(comm, tmp, rows, rows.size(), contents, sizes, problem);
     }
+    agree_on_writes(comm, tmp, problem);
   } catch (const CheckpointError &e) {
     if (!comm.is_root()) throw;
     std::error_code ec;

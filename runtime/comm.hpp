@@ -20,7 +20,13 @@ namespace hardrod {
 struct TrafficCounter {
   long long messages = 0;
   long long bytes = 0;
+  double seconds = 0.0;  // in the calls, waiting included
 };
+
+// MPI_Finalize, if MPI was started and is not finalized yet: main's last call (SMPI requires
+// every rank to finalize before its main returns; a process exit finalizes too, through
+// std::atexit, where main does not return).
+void finalize_communication();
 
 class Communicator {
  public:

@@ -9,20 +9,22 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kernels/initial_state.hpp"
 #include "kernels/order_tensor.hpp"
+#include "kernels/thermostat.hpp"
 #include "runtime/body_wire.hpp"
 #include "runtime/system.hpp"
 
 namespace hardrod {
 
-// The grid of ranks and the domain, from all bodies (the same on every rank).
-void System::decompose(const Particles &all, const ParallelOptions &parallel) {
+// The grid of ranks: the given one, or MPI_Dims_create's, the fewest cuts going to the axis the
+// bodies are most aligned with (q's director): rods aligned along an axis need shadows half a
+// rod further along it than across.
+std::array<int, 3> System::choose_grid(const ParallelOptions &parallel,
+                                       const OrderParameter &q) const {
   std::array<int, 3> grid = parallel.grid;
   if (grid[0] * grid[1] * grid[2] == 0) {
     grid = comm_.make_grid({0, 0, 0});  // non-increasing counts
-    // Rods aligned along an axis need shadows half a rod further along it than across:
-    // give the fewest cuts to the axis the bodies are most aligned with.
-    const OrderParameter q = order_parameter(axis_moments(all, all.size()));
     std::array<int, 3> axes{0, 1, 2};
     const double d[3] = {std::fabs(q.director.x), std::fabs(q.director.y), std::fabs(q.director.z)};
     if (!scene_.shape.is_sphere() && std::isfinite(q.S))
@@ -33,6 +35,12 @@ void System::decompose(const Particles &all, const ParallelOptions &parallel) {
   if (grid[0] * grid[1] * grid[2] != comm_.size())
     throw SceneError({fmt::format("--grid {}x{}x{}: needs {} ranks, running on {}", grid[0],
                                   grid[1], grid[2], grid[0] * grid[1] * grid[2], comm_.size())});
+  return grid;
+}
+
+// The domain on `grid` (the same on every rank), with cuts that share the bodies out where the
+// balancer is on (`counts`: the bodies per slab).
+void System::decompose(const std::array<int, 3> &grid, const SlabCounts &counts) {
   // A body is shadowed where its axis segment comes within L/2 + D + skin of a subdomain:
   // every point of an owned body's segment stays within L/2 + skin/2 of the subdomain until
   // the next rebuild, and every point of another body moves at most skin/2, so every body
@@ -43,7 +51,70 @@ void System::decompose(const Particles &all, const ParallelOptions &parallel) {
   domain_ = Domain(scene_.box, grid, comm_.rank(), shadow_reach, partner_reach);
   if (balance_.mode != BalanceMode::kOff && comm_.size() > 1)
     domain_ =
-        Domain(scene_.box, grid, comm_.rank(), shadow_reach, partner_reach, starting_cuts(all));
+        Domain(scene_.box, grid, comm_.rank(), shadow_reach, partner_reach, starting_cuts(counts));
+}
+
+// From all bodies, which every rank holds: the grid, the domain, and the bodies this rank owns.
+void System::decompose_all(const Particles &all, const ParallelOptions &parallel) {
+  const double *at[3] = {all.x.data(), all.y.data(), all.z.data()};
+  const double sides[3] = {scene_.box.length.x, scene_.box.length.y, scene_.box.length.z};
+  decompose(choose_grid(parallel, order_parameter(axis_moments(all, all.size()))),
+            [&](int a, const std::vector<double> &cuts) {
+              std::vector<double> counts(cuts.size() - 1, 0.0);
+              for (std::size_t i = 0; i < all.size(); ++i)
+                counts[static_cast<std::size_t>(Domain::slab(cuts, Box::wrap(at[a][i], sides[a])))] +=
+                    1.0;
+              return counts;
+            });
+  keep_owned(all);
+}
+
+// The scene's lattice made where it is owned: each rank places only the sites in its subdomain
+// and draws their velocities; the momentum and kinetic energy that fix the drift and the scale
+// are exact sums over the ranks. The same bodies, bit for bit, as every rank making all of them
+// (initial_bodies) and keeping its own, in memory and time of the rank's share.
+void System::start_on_lattice(const ParallelOptions &parallel) {
+  const std::array<long long, 3> &lattice = scene_.lattice;
+  const int axis = scene_.axis;
+  // Every axis along the lattice's: the director of all of them, S = 1.
+  OrderParameter q;
+  q.S = 1.0;
+  q.director = {axis == 0 ? 1.0 : 0.0, axis == 1 ? 1.0 : 0.0, axis == 2 ? 1.0 : 0.0};
+  const double sides[3] = {scene_.box.length.x, scene_.box.length.y, scene_.box.length.z};
+  decompose(choose_grid(parallel, q), [&](int a, const std::vector<double> &cuts) {
+    // The sites along axis a, each standing for the whole plane of sites across it.
+    std::vector<double> counts(cuts.size() - 1, 0.0);
+    const auto na = static_cast<std::size_t>(a);
+    const double spacing = sides[a] / static_cast<double>(lattice[na]);
+    const auto plane = static_cast<double>(scene_.n / lattice[na]);
+    for (long long i = 0; i < lattice[na]; ++i) {
+      const double x = (static_cast<double>(i) + 0.5) * spacing;
+      counts[static_cast<std::size_t>(Domain::slab(cuts, Box::wrap(x, sides[a])))] += plane;
+    }
+    return counts;
+  });
+  // The sites in this subdomain (a site more each side for the rounding at a cut).
+  const auto lo = domain_.lower(comm_.rank()), hi = domain_.upper(comm_.rank());
+  std::array<long long, 3> from{}, to{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double spacing = sides[a] / static_cast<double>(lattice[a]);
+    from[a] = std::max(0LL, static_cast<long long>(std::floor(lo[a] / spacing - 0.5)) - 1);
+    to[a] = std::min(lattice[a], static_cast<long long>(std::ceil(hi[a] / spacing - 0.5)) + 2);
+  }
+  Particles mine;
+  place_lattice_block(mine, scene_.box, lattice, axis, from, to,
+                      [&](const Vec3 &x) { return domain_.owner_of(x) == comm_.rank(); });
+  const Shape &shape = scene_.shape;
+  std::array<ExactSum, 3> momentum = draw_velocities(mine, shape, scene_.seed, scene_.temperature);
+  const std::vector<ExactSum> p =
+      comm_.sum("setup", std::vector<ExactSum>(momentum.begin(), momentum.end()));
+  std::copy(p.begin(), p.end(), momentum.begin());
+  remove_drift(mine, momentum, scene_.n);
+  const KineticEnergy ke = hardrod::kinetic_energy(mine, mine.size(), shape);
+  const std::vector<ExactSum> k = comm_.sum("setup", {ke.translational, ke.rotational});
+  scale_to_target(mine, shape, scene_.temperature, scene_.n, KineticEnergy{k[0], k[1]}.total());
+  particles_ = std::move(mine);
+  owned_ = particles_.size();
 }
 
 // Every rank made the same full state: this one keeps the bodies whose centres it owns.

@@ -6,6 +6,11 @@
 // Exit status: 0 success, 1 usage, 2 bad scene, output directory or checkpoint, 3 the
 // physics broke (overlap beyond tolerance, NaN): the message says which step and dt,
 // 4 stopped by SIGTERM/SIGUSR1/SIGINT after writing a checkpoint (resume continues it).
+#ifdef HARDROD_SMPI
+// SMPI's smpi_helpers.h makes exit(x) a macro, which would rename CLI::App::exit; nothing here
+// calls the C library's exit (main returns its status).
+#undef exit
+#endif
 #include <fmt/format.h>
 #include <omp.h>
 
@@ -294,9 +299,7 @@ int resume_command(const ResumeArgs &r, ExecutionArgs &e) {
   });
 }
 
-}  // namespace
-
-int main(int argc, char **argv) {
+int run_verb(int argc, char **argv) {
   hardrod::record_command_line(argc, argv);  // summary.json and trajectory.h5 name the call
   CLI::App app{"hardrod: hard-spherocylinder liquid crystals by hard-contact rigid-body dynamics"};
   app.require_subcommand(1);
@@ -325,4 +328,12 @@ int main(int argc, char **argv) {
   if (analyze->parsed()) return analyze_command(analyze_options, no_plots);
   if (run->parsed()) return run_command(run_args, execution);
   return resume_command(resume_args, execution);
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+  const int status = run_verb(argc, argv);
+  hardrod::finalize_communication();
+  return status;
 }

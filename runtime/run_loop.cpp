@@ -119,7 +119,16 @@ void RunLoop::step_to_target() {
   System &sim = *sim_;
   while (sim.current_step() < total_steps_) {
     sim.request_stop(stop_signal() != 0);  // agreed on in the next step's reduction
+    const Clock::time_point burst = Clock::now();
+    const bool production = sim.current_step() >= scene_.equilibration_steps;
+    const long long before = sim.current_step();
     sim.advance(next_burst());
+    const double seconds = seconds_between(burst, Clock::now());
+    step_seconds_ += seconds;
+    if (production) {
+      production_step_seconds_ += seconds;
+      production_steps_ += sim.current_step() - before;
+    }
     if (options_.verify) sim.verify_bodies();
     const long long step = sim.current_step();
     if (due_every(scene_.snapshot_interval, step)) write_frame();
@@ -307,6 +316,11 @@ nlohmann::json RunLoop::finish() {
   outcome.first_step = first_step_;
   outcome.wall_seconds = sim.comm().max("summary", {seconds_since_start()})[0];
   outcome.setup_seconds = setup_seconds_;
+  const std::vector<double> steps =
+      sim.comm().max("summary", {step_seconds_, production_step_seconds_});
+  outcome.step_seconds = steps[0];
+  outcome.production_seconds_per_step =
+      production_steps_ > 0 ? steps[1] / static_cast<double>(production_steps_) : 0.0;
   nlohmann::json summary = run_summary(scene_, sim, st_, outcome, placement_, counters_);
   if (frank_) summary["frank_samples"] = frank_->samples();
   try {

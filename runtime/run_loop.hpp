@@ -14,6 +14,7 @@
 #include <string>
 
 #include "kernels/fourier_order_tensor.hpp"
+#include "perf/clock.hpp"
 #include "perf/counters.hpp"
 #include "runtime/checkpoint.hpp"
 #include "runtime/run.hpp"
@@ -38,7 +39,7 @@ class RunLoop {
   nlohmann::json run();
 
  private:
-  using Clock = std::chrono::steady_clock;
+  using Clock = ProgramClock;  // the simulated time under SMPI
 
   void restore(const Checkpoint &from);
   void step_to_target();
@@ -84,6 +85,9 @@ class RunLoop {
   Clock::time_point start_;
   Clock::time_point last_print_;
   double setup_seconds_ = 0.0;
+  double step_seconds_ = 0.0;  // in System::advance: the steps alone, this segment
+  double production_step_seconds_ = 0.0;  // of those, in production
+  long long production_steps_ = 0;
   long long last_frame_step_ = -1;
   std::optional<Sample> last_sample_;  // for the progress line
   std::string failure_;                // the PhysicsError (or failed output) that ended the run

@@ -121,7 +121,8 @@ void add_timers(nlohmann::json &summary, System &sim) {
   summary["timers_rank_mean"] = mean;
 }
 
-// Communication per step per rank, averaged over ranks, by communication step.
+// Communication per step per rank, averaged over ranks, by communication step: messages, bytes
+// and the time in the calls (waiting for the other ranks included).
 nlohmann::json traffic_json(Communicator &comm, long long steps) {
   nlohmann::json traffic = nlohmann::json::object();
   const double rank_steps = static_cast<double>(comm.size()) * std::max<long long>(1, steps);
@@ -132,8 +133,12 @@ nlohmann::json traffic_json(Communicator &comm, long long steps) {
     const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
     const long long messages = comm.sum("summary", c.messages);
     const long long bytes = comm.sum("summary", c.bytes);
+    ExactSum seconds;
+    seconds.add(c.seconds);
+    seconds = comm.sum("summary", seconds);
     traffic[name] = {{"messages_per_step", static_cast<double>(messages) / rank_steps},
-                     {"bytes_per_step", static_cast<double>(bytes) / rank_steps}};
+                     {"bytes_per_step", static_cast<double>(bytes) / rank_steps},
+                     {"seconds_per_step", seconds.value() / rank_steps}};
   }
   return traffic;
 }
@@ -224,6 +229,12 @@ nlohmann::json cost_json(const Scene &scene, System &sim, const RunState &st,
   const double wall = outcome.wall_seconds;
   return {
       {"wall_seconds", wall},
+      {"step_seconds", outcome.step_seconds},
+      {"seconds_per_step",
+       steps_done > outcome.first_step
+           ? outcome.step_seconds / static_cast<double>(steps_done - outcome.first_step)
+           : 0.0},
+      {"production_seconds_per_step", outcome.production_seconds_per_step},
       {"setup_seconds", outcome.setup_seconds},
       {"setup_seconds_total", st.setup_seconds + outcome.setup_seconds},
       {"wall_seconds_total", st.wall_seconds + wall},

@@ -56,6 +56,8 @@ struct RunOutcome {
   long long first_step = 0;
   double wall_seconds = 0.0;   // this segment, slowest rank
   double setup_seconds = 0.0;  // this segment, slowest rank
+  double step_seconds = 0.0;   // in the steps alone (no samples, output), slowest rank
+  double production_seconds_per_step = 0.0;  // the same, per production step (0: none)
 };
 
 // Collective: summary.json's contents (the same on every rank, except the Frank sample count

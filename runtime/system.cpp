@@ -18,8 +18,14 @@
 
 namespace hardrod {
 
+// A lattice start is made where it is owned (start_on_lattice); the others are made whole on
+// every rank, which keeps its share.
 System::System(Scene scene, ParallelOptions parallel) : scene_(std::move(scene)) {
-  configure(initial_bodies(scene_, comm_.size() == 1), parallel);
+  configure(parallel);
+  if (scene_.configuration == Configuration::kLattice)
+    start_on_lattice(parallel);
+  else
+    decompose_all(initial_bodies(scene_, comm_.size() == 1), parallel);
 }
 
 System::System(Scene scene, Particles bodies, ParallelOptions parallel, long long first_step)
@@ -27,12 +33,13 @@ System::System(Scene scene, Particles bodies, ParallelOptions parallel, long lon
   if (static_cast<long long>(bodies.size()) != scene_.n)
     throw std::invalid_argument(
         fmt::format("System: {} bodies given for a scene of n = {}", bodies.size(), scene_.n));
-  configure(std::move(bodies), parallel);
+  configure(parallel);
+  decompose_all(bodies, parallel);
 }
 
 System::~System() = default;
 
-void System::configure(Particles all, ParallelOptions parallel) {
+void System::configure(const ParallelOptions &parallel) {
   kinetic_target_ = hardrod::target_kinetic_energy(scene_.n, scene_.shape, scene_.temperature);
   list_.skin = scene_.skin;
   balance_ = parallel.balance;
@@ -40,8 +47,6 @@ void System::configure(Particles all, ParallelOptions parallel) {
     throw SceneError(
         {fmt::format("--balance-interval must be at least 1, got {}", balance_.interval)});
   method_ = make_step_method(scene_, parallel, comm_.size());
-  decompose(all, parallel);
-  keep_owned(all);
 }
 
 void System::fail(const std::string &message) const { throw PhysicsError(message); }

@@ -25,6 +25,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -235,10 +236,15 @@ class System {
     std::vector<int> holders;  // ranks with a shadow copy
   };
 
-  // Construction (system.cpp, decomposition.cpp, balance_check.cpp).
-  void configure(Particles all, ParallelOptions parallel);
-  void decompose(const Particles &all, const ParallelOptions &parallel);
-  Cuts starting_cuts(const Particles &all) const;
+  // Construction (system.cpp, decomposition.cpp, balance_check.cpp). SlabCounts: the bodies
+  // per slab of the given cuts along an axis, for the starting cuts.
+  using SlabCounts = std::function<std::vector<double>(int axis, const std::vector<double> &cuts)>;
+  void configure(const ParallelOptions &parallel);
+  std::array<int, 3> choose_grid(const ParallelOptions &parallel, const OrderParameter &q) const;
+  void decompose(const std::array<int, 3> &grid, const SlabCounts &counts);
+  void decompose_all(const Particles &all, const ParallelOptions &parallel);
+  void start_on_lattice(const ParallelOptions &parallel);
+  Cuts starting_cuts(const SlabCounts &counts) const;
   void keep_owned(const Particles &all);
   // Phase 4's parts (decomposition.cpp).
   void take_new_cuts();

@@ -36,13 +36,12 @@ void MidpointStep::finish(System &sys, bool next_follows) {
 // detect.
 MidpointDetection MidpointStep::to_midpoint(System &sys, int halves) {
   const Scene &scene = sys.scene();
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = ProgramClock::now();
   MidpointDetection m =
       advance_to_midpoint(sys.particles(), sys.advanced(), scene.shape, 0.5 * scene.dt, halves,
                           sys.list(), scene.box, contacts_);
   const long long all =
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start)
-          .count();
+      std::chrono::duration_cast<std::chrono::nanoseconds>(ProgramClock::now() - start).count();
   sys.timers().add(Region::kIntegrate, m.drift_nanoseconds);
   if (m.detected) {
     sys.timers().add(Region::kDetect, all - m.drift_nanoseconds);

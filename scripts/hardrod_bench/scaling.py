@@ -13,14 +13,14 @@ import statistics
 import subprocess
 import sys
 
-from . import mpi
+from . import mpi, simulate
 from .common import (HARDROD, NPROC, busy_warning, common_arguments, ensure_built, g, invocation, machine_info,
                      make_outdir, markdown_table, parse_list, relpath, report_header, write_csv, write_json,
                      write_text)
 from .references import cubic_side
 from .runner import Run, file_start, print_dry_run, run_all
 
-HELP = "strong (N = 18432) and weak (2304 per thread) OpenMP scaling, CSV and PNG"
+HELP = "strong and weak scaling over ranks x threads here, or (--simulate) on a simulated cluster"
 DESCRIPTION = ("Strong scaling of scenes/paper.toml and weak scaling at 2304 rods per thread "
                "over 1..nproc threads, best of --repeat runs each, run one at a time. Pins with "
                "OMP_PROC_BIND=close OMP_PLACES=cores unless set in the environment; records "
@@ -30,7 +30,8 @@ DESCRIPTION = ("Strong scaling of scenes/paper.toml and weak scaling at 2304 rod
 def add_arguments(s):
     common_arguments(s, jobs=False)
     s.add_argument("--threads-list", default=None, help="comma list of thread counts (default 1..nproc)")
-    s.add_argument("--steps", type=int, default=2000, help="time steps per run (default 2000)")
+    s.add_argument("--steps", type=int, default=None,
+                   help="time steps per run (default 2000; simulated: 200)")
     s.add_argument("--method", choices=["midpoint", "exact"], default="midpoint",
                    help="run.method of every run (default midpoint, the paper's)")
     s.add_argument("--dt", type=float, default=None,
@@ -46,6 +47,7 @@ def add_arguments(s):
                         "paper scene) instead of the lattice, whose first steps have few contacts")
     s.add_argument("--configs", default="1x1,1x2,2x1",
                    help="comma list of RANKSxTHREADS points (default %(default)s; overrides --threads-list)")
+    simulate.add_arguments(s)
 
 
 AFFINITY_RE = re.compile(r"hardrod-affinity thread (\d+) cpus (\S+)")
@@ -79,6 +81,10 @@ def parse_configs(args):
 
 
 def main(args):
+    if args.steps is None:
+        args.steps = 200 if args.simulate else 2000
+    if args.simulate:
+        return simulate.main(args)
     if args.dt is None:
         args.dt = 1e-3 if args.method == "exact" else 1e-4
     configs = parse_configs(args)

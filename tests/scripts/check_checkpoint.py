@@ -40,7 +40,8 @@ MASK = (1 << 64) - 1
 
 # summary.json keys that depend on the run's history of processes rather than the physics.
 NOT_PHYSICS = {
-    "wall_seconds", "wall_seconds_total", "setup_seconds", "setup_seconds_total", "particle_steps_per_second", "ns_per_particle_step",
+    "wall_seconds", "wall_seconds_total", "setup_seconds", "setup_seconds_total", "step_seconds",
+    "seconds_per_step", "production_seconds_per_step", "particle_steps_per_second", "ns_per_particle_step",
     "timers", "timers_rank_max", "timers_rank_mean", "hardware_counters", "communication_per_rank", "placement", "binding",
     "topology", "threads", "ranks", "grid", "segments", "first_step",
     "narrow_phase_tests_per_step", "neighbor_list_builds", "status", "stopped_by", "detect_watched_share",
