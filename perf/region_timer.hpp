@@ -54,16 +54,17 @@ class RegionTimers {
 class ScopedRegion {
  public:
   ScopedRegion(RegionTimers &timers, Region region)
-      : timers_(timers), region_(region), start_(ProgramClock::now()) {}
+      : timers_(timers), region_(region), start_(ProgramClock::now_at(place(0))) {}
   ~ScopedRegion() {
     timers_.add(region_, std::chrono::duration_cast<std::chrono::nanoseconds>(
-                             ProgramClock::now() - start_)
+                             ProgramClock::now_at(place(1)) - start_)
                              .count());
   }
   ScopedRegion(const ScopedRegion &) = delete;
   ScopedRegion &operator=(const ScopedRegion &) = delete;
 
  private:
+  std::uint64_t place(int end) const { return 2 * static_cast<std::uint64_t>(region_) + end + 1; }
   RegionTimers &timers_;
   Region region_;
   ProgramClock::time_point start_;

@@ -39,8 +39,9 @@ constexpr int kExchangeTag = 7001;
 // under SMPI).
 class Timed {
  public:
-  explicit Timed(TrafficCounter &t) : t_(t), start_(ProgramClock::now()) {}
-  ~Timed() { t_.seconds += seconds_between(start_, ProgramClock::now()); }
+  explicit Timed(TrafficCounter &t)
+      : t_(t), start_(ProgramClock::now_before_communication(reinterpret_cast<std::uintptr_t>(&t))) {}
+  ~Timed() { t_.seconds += seconds_between(start_, ProgramClock::now_after_communication()); }
   Timed(const Timed &) = delete;
   Timed &operator=(const Timed &) = delete;
 
@@ -248,6 +249,14 @@ std::vector<char> Communicator::gather(const std::string &name, const std::vecto
   t.messages += 2;
   t.bytes += mine;
   return all;
+}
+
+void Communicator::barrier(const std::string &name) {
+  if (size_ == 1) return;
+  TrafficCounter &t = traffic_[name];
+  const Timed timed(t);
+  MPI_Barrier(MPI_COMM_WORLD);
+  t.messages += 1;
 }
 
 void Communicator::broadcast(const std::string &name, std::vector<char> &data) {

@@ -60,6 +60,8 @@ class Communicator {
   std::vector<double> max(const std::string &name, const std::vector<double> &local);
   // Gather variable-size byte blocks at rank 0 (in rank order); others get an empty result.
   std::vector<char> gather(const std::string &name, const std::vector<char> &local);
+  // Every rank waits for all (MPI_Barrier), counted under `name`.
+  void barrier(const std::string &name);
   // Rank 0's bytes to everyone (the buffer must already have rank 0's size everywhere).
   void broadcast(const std::string &name, std::vector<char> &data);
 

@@ -119,8 +119,14 @@ void RunLoop::step_to_target() {
   System &sim = *sim_;
   while (sim.current_step() < total_steps_) {
     sim.request_stop(stop_signal() != 0);  // agreed on in the next step's reduction
+    // The ranks start a burst together: what rank 0 alone did after the last one (writing
+    // samples, frames, progress) is not waited for inside the steps.
+    sim.comm().barrier("burst");
     const Clock::time_point burst = Clock::now();
     const bool production = sim.current_step() >= scene_.equilibration_steps;
+    if (production && production_steps_ == 0)
+      for (const auto &[name, counter] : sim.comm().traffic())
+        traffic_before_production_[name] = counter.seconds;
     const long long before = sim.current_step();
     sim.advance(next_burst());
     const double seconds = seconds_between(burst, Clock::now());
@@ -321,6 +327,9 @@ nlohmann::json RunLoop::finish() {
   outcome.step_seconds = steps[0];
   outcome.production_seconds_per_step =
       production_steps_ > 0 ? steps[1] / static_cast<double>(production_steps_) : 0.0;
+  outcome.production_steps = production_steps_;
+  outcome.production_step_seconds_here = production_step_seconds_;
+  outcome.traffic_seconds_before_production = traffic_before_production_;
   nlohmann::json summary = run_summary(scene_, sim, st_, outcome, placement_, counters_);
   if (frank_) summary["frank_samples"] = frank_->samples();
   try {

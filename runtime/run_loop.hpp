@@ -11,6 +11,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <map>
 #include <string>
 
 #include "kernels/fourier_order_tensor.hpp"
@@ -88,6 +89,7 @@ class RunLoop {
   double step_seconds_ = 0.0;  // in System::advance: the steps alone, this segment
   double production_step_seconds_ = 0.0;  // of those, in production
   long long production_steps_ = 0;
+  std::map<std::string, double> traffic_before_production_;  // filled as production begins
   long long last_frame_step_ = -1;
   std::optional<Sample> last_sample_;  // for the progress line
   std::string failure_;                // the PhysicsError (or failed output) that ended the run

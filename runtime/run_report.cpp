@@ -8,8 +8,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "perf/region_timer.hpp"
+#include "perf/simulated_compute.hpp"
 #include "perf/topology.hpp"
 #include "runtime/provenance.hpp"
 #include "runtime/step_method.hpp"
@@ -123,24 +125,77 @@ void add_timers(nlohmann::json &summary, System &sim) {
 
 // Communication per step per rank, averaged over ranks, by communication step: messages, bytes
 // and the time in the calls (waiting for the other ranks included).
-nlohmann::json traffic_json(Communicator &comm, long long steps) {
+// Per rank and step, over this segment's steps; the seconds also over its production steps.
+nlohmann::json traffic_json(Communicator &comm, long long steps, const RunOutcome &outcome) {
   nlohmann::json traffic = nlohmann::json::object();
-  const double rank_steps = static_cast<double>(comm.size()) * std::max<long long>(1, steps);
+  const auto per_rank_step = [&](long long n) {
+    return static_cast<double>(comm.size()) * static_cast<double>(std::max<long long>(1, n));
+  };
   for (const char *name :
        {"agree", "migrate", "shadows", "contacts", "results", "exact_pieces", "exact_results",
-        "exact_round", "observe", "kinetic_energy", "checkpoint", "balance"}) {
+        "exact_round", "observe", "kinetic_energy", "checkpoint", "balance", "burst"}) {
     const auto it = comm.traffic().find(name);
     const TrafficCounter c = it == comm.traffic().end() ? TrafficCounter{} : it->second;
+    const auto before = outcome.traffic_seconds_before_production.find(name);
     const long long messages = comm.sum("summary", c.messages);
     const long long bytes = comm.sum("summary", c.bytes);
-    ExactSum seconds;
-    seconds.add(c.seconds);
+    std::vector<ExactSum> seconds(2);
+    seconds[0].add(c.seconds);
+    seconds[1].add(outcome.production_steps == 0 ? 0.0
+                   : before == outcome.traffic_seconds_before_production.end()
+                       ? c.seconds
+                       : c.seconds - before->second);
     seconds = comm.sum("summary", seconds);
-    traffic[name] = {{"messages_per_step", static_cast<double>(messages) / rank_steps},
-                     {"bytes_per_step", static_cast<double>(bytes) / rank_steps},
-                     {"seconds_per_step", seconds.value() / rank_steps}};
+    traffic[name] = {
+        {"messages_per_step", static_cast<double>(messages) / per_rank_step(steps)},
+        {"bytes_per_step", static_cast<double>(bytes) / per_rank_step(steps)},
+        {"seconds_per_step", seconds[0].value() / per_rank_step(steps)},
+        {"production_seconds_per_step",
+         seconds[1].value() / per_rank_step(outcome.production_steps)}};
   }
   return traffic;
+}
+
+// The ranks' computation in the production steps: a step's time less the communication
+// inside it, mean and slowest rank, per step; their ratio is the load imbalance.
+nlohmann::json production_compute_json(Communicator &comm, const RunOutcome &outcome) {
+  double inside = 0.0;
+  for (const char *name : {"agree", "migrate", "shadows", "contacts", "results", "exact_pieces",
+                           "exact_results", "exact_round", "kinetic_energy", "balance"}) {
+    const auto it = comm.traffic().find(name);
+    if (it == comm.traffic().end()) continue;
+    const auto before = outcome.traffic_seconds_before_production.find(name);
+    inside += it->second.seconds -
+              (before == outcome.traffic_seconds_before_production.end() ? 0.0 : before->second);
+  }
+  const double steps = static_cast<double>(std::max<long long>(1, outcome.production_steps));
+  const double here = outcome.production_steps > 0
+                          ? (outcome.production_step_seconds_here - inside) / steps
+                          : 0.0;
+  ExactSum sum;
+  sum.add(here);
+  sum = comm.sum("summary", sum);
+  const double most = comm.max("summary", {here})[0];
+  return {{"rank_mean", sum.value() / comm.size()}, {"rank_max", most}};
+}
+
+// Under SMPI, when the program charged its own computation: what all ranks charged, and what
+// the noise filter took off.
+nlohmann::json simulated_compute_json(Communicator &comm) {
+  const simulated::ComputeTotals t = simulated::totals();
+  ExactSum charged, clipped;
+  charged.add(t.charged_seconds);
+  clipped.add(t.clipped_seconds);
+  charged = comm.sum("summary", charged);
+  clipped = comm.sum("summary", clipped);
+  const std::vector<double> extremes =
+      comm.max("summary", {t.charged_seconds, -t.charged_seconds});
+  return {{"stretches", comm.sum("summary", t.stretches)},
+          {"charged_seconds_rank_max", extremes[0]},
+          {"charged_seconds_rank_min", -extremes[1]},
+          {"clipped", comm.sum("summary", t.clipped)},
+          {"charged_seconds", charged.value()},
+          {"clipped_seconds", clipped.value()}};
 }
 
 // Rank 0's threads' hardware counters, or why there are none.
@@ -283,7 +338,9 @@ nlohmann::json run_summary(const Scene &scene, System &sim, const RunState &st,
   }
   sim.method().summarize(comm, summary);
   summary["hardware_counters"] = counters_json(counters);
-  summary["communication_per_rank"] = traffic_json(comm, steps_done - outcome.first_step);
+  summary["communication_per_rank"] = traffic_json(comm, steps_done - outcome.first_step, outcome);
+  summary["production_compute_seconds_per_step"] = production_compute_json(comm, outcome);
+  if (simulated::charging()) summary["simulated_compute"] = simulated_compute_json(comm);
   if (!outcome.failure.empty()) summary["error"] = outcome.failure;
   if (!outcome.stopped_by.empty()) summary["stopped_by"] = outcome.stopped_by;
   return summary;

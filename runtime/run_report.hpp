@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,10 @@ struct RunOutcome {
   double setup_seconds = 0.0;  // this segment, slowest rank
   double step_seconds = 0.0;   // in the steps alone (no samples, output), slowest rank
   double production_seconds_per_step = 0.0;  // the same, per production step (0: none)
+  long long production_steps = 0;             // this segment's
+  double production_step_seconds_here = 0.0;  // in them, this rank
+  // Each communication's seconds on this rank when this segment's production began.
+  std::map<std::string, double> traffic_seconds_before_production;
 };
 
 // Collective: summary.json's contents (the same on every rank, except the Frank sample count

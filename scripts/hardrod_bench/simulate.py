@@ -30,7 +30,8 @@ import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from .common import (ROOT, g, invocation, machine_info, make_outdir, markdown_table, parse_list, relpath,
+from . import simulate_real
+from .common import (HARDROD, ROOT, g, invocation, machine_info, make_outdir, markdown_table, parse_list, relpath,
                      report_header, write_csv, write_json, write_text)
 
 SMPI_HARDROD = ROOT / "build-smpi" / "hardrod"
@@ -46,6 +47,9 @@ COMPUTE = ("integrate", "detect", "resolve", "neighbor_build", "thermostat")
 EXCHANGES = ("contacts", "results", "exact_pieces", "exact_results")
 AGREEMENT = ("agree", "exact_round")
 REBUILD = ("migrate", "shadows")
+# The step's own communication: what the messages and bytes per rank-step count (not the
+# observables' reductions or the checkpoints).
+STEP_TRAFFIC = AGREEMENT + EXCHANGES + REBUILD + ("balance",)
 
 
 def add_arguments(s):
@@ -57,6 +61,12 @@ def add_arguments(s):
     s.add_argument("--n", default="147456", help="strong scaling: rods, 2304 x k^3 (comma list)")
     s.add_argument("--smpi-binary", default=str(SMPI_HARDROD),
                    help="hardrod built for SMPI (default build-smpi/hardrod: scripts/build --smpi)")
+    s.add_argument("--machine-noise", choices=("filter", "keep"), default="filter",
+                   help="filter (default): each stretch of computation is charged at most 1.2 x the median "
+                        "of the recent ones between the same two places on any rank + 1 us, which takes this machine's stalls off; keep: as measured")
+    s.add_argument("--against-real", type=int, default=0, metavar="ROUNDS",
+                   help="also run the first --per-rank's weak system on 1 and 2 ranks for real (build/hardrod) "
+                        "and simulated, in turns, ROUNDS times each, and compare (default 0: not)")
     s.add_argument("--timeout", type=float, default=7200, help="seconds one simulation may take (default 7200)")
 
 
@@ -125,44 +135,63 @@ def system_sets(mode, size, ranks):
     return n, sets, grid
 
 
-def smpirun_argv(args, platform, hosts, ranks, sets, extra, out):
-    argv = ["smpirun", "-np", str(ranks), "-no-privatize", "-platform", str(platform), "-hostfile", str(hosts),
-            args.smpi_binary, "run", str(ROOT / "scenes" / "everyday.toml")]
+NOISE_MODES = {"filter": "filtered", "keep": "measured"}
+
+
+def hardrod_argv(binary, sets, extra, out):
+    """`hardrod run` of the everyday scene with these --set values, one thread, into out."""
+    argv = [str(binary), "run", str(ROOT / "scenes" / "everyday.toml")]
     for k, v in sets.items():
         argv += ["--set", f"{k}={v}"]
     return argv + ["--out", str(out), "--force", "--quiet", "--threads", "1", "--no-bind", *extra]
 
 
-def per_step(summary, names, key="seconds_per_step"):
+def smpirun_argv(args, platform, hosts, ranks, sets, extra, out):
+    # hardrod charges its computation itself (perf/simulated_compute.hpp), SMPI does not time it.
+    return (["smpirun", "-np", str(ranks), "-no-privatize", "-platform", str(platform), "-hostfile", str(hosts),
+             "--cfg=smpi/simulate-computation:no"] + hardrod_argv(args.smpi_binary, sets, extra, out))
+
+
+def simulated_env(args):
+    return {**os.environ, "OMP_NUM_THREADS": "1", "HARDROD_SMPI_COMPUTE": NOISE_MODES[args.machine_noise]}
+
+
+def run_sets(args, sets):
+    """The system's --set values with the run's: method, dt, steps, warm-up, no checkpoints."""
+    return {**sets, "run.method": f'"{args.method}"', "run.dt": repr(args.dt), "run.steps": str(args.steps),
+            "run.equilibration_steps": str(WARMUP), "run.sample_interval": str(max(1, args.steps // 2)),
+            "output.checkpoint_interval": "0"}
+
+
+def per_step(summary, names, key="production_seconds_per_step"):
     traffic = summary.get("communication_per_rank", {})
     return sum(traffic.get(n, {}).get(key, 0.0) for n in names)
 
 
 def row_of(mode, size, ranks, summary, real_seconds):
     steps = max(1, summary["steps_done"])  # the timers hold every step, warm-up included
-    mean, most = summary["timers_rank_mean"], summary["timers_rank_max"]
+    mean = summary["timers_rank_mean"]
     step = summary["production_seconds_per_step"]
     agree = per_step(summary, AGREEMENT)
     exchanges = per_step(summary, EXCHANGES)
     rebuild_comm = per_step(summary, REBUILD)
     balance = per_step(summary, ("balance",))
     traffic = summary.get("communication_per_rank", {})
-    messages = sum(v.get("messages_per_step", 0.0) for v in traffic.values())
-    bytes_ = sum(v.get("bytes_per_step", 0.0) for v in traffic.values())
-    # The communication inside the compute regions (exchanges in resolve, migration in the
-    # rebuild, the exact method's rounds) is counted as communication, not compute.
-    # The step less its communication (the timed, production steps); the imbalance from the
-    # regions of every step (the communication inside them taken off).
-    inside = exchanges + rebuild_comm + per_step(summary, ("exact_round",))
-    compute = step - agree - exchanges - rebuild_comm - balance
-    compute_mean = sum(mean.get(r, 0.0) for r in COMPUTE) / steps - inside
-    compute_max = sum(most.get(r, 0.0) for r in COMPUTE) / steps - inside
+    messages = per_step(summary, STEP_TRAFFIC, "messages_per_step")
+    bytes_ = per_step(summary, STEP_TRAFFIC, "bytes_per_step")
+    charged = summary.get("simulated_compute", {})
+    measured = charged.get("charged_seconds", 0.0) + charged.get("clipped_seconds", 0.0)
+    # Compute: a production step less the communication inside it, mean over ranks; the
+    # imbalance: the slowest rank's over that.
+    work = summary.get("production_compute_seconds_per_step", {})
+    compute, compute_max = work.get("rank_mean", 0.0), work.get("rank_max", 0.0)
     return {"mode": mode, "size": size, "ranks": ranks, "n": summary["n"], "steps": steps,
             "step_us": 1e6 * step, "compute_us": 1e6 * compute, "agree_us": 1e6 * agree,
             "exchanges_us": 1e6 * exchanges, "rebuild_us": 1e6 * mean.get("neighbor_build", 0.0) / steps,
             "rebuild_comm_us": 1e6 * rebuild_comm, "balance_us": 1e6 * balance,
             "messages_per_step": messages, "bytes_per_step": bytes_,
-            "imbalance": (compute_max / compute_mean - 1.0) if compute_mean > 0 else None,
+            "imbalance": (compute_max / compute - 1.0) if compute > 0 else None,
+            "noise_filtered": charged.get("clipped_seconds", 0.0) / measured if measured > 0 else None,
             "state_checksum": summary["state_checksum"], "real_seconds": real_seconds,
             "method": summary.get("method"), "dt": summary.get("dt")}
 
@@ -187,15 +216,14 @@ def run_simulations(args, out, platform, hosts, plan):
     rows, failures = [], []
     for mode, size, ranks, check in plan:
         n, sets, extra = system_sets(mode, size, ranks)
-        sets.update({"run.method": f'"{args.method}"', "run.dt": repr(args.dt), "run.steps": str(args.steps),
-                     "run.equilibration_steps": str(WARMUP), "run.sample_interval": str(max(1, args.steps // 2)),
-                     "output.checkpoint_interval": "0"})
+        sets = run_sets(args, sets)
         run_ranks = 1 if check else ranks
         tag = f"{mode}-{size}-{ranks}" + ("-on-1" if check else "")
         run_out = out / "runs" / tag
         argv = smpirun_argv(args, platform, hosts, run_ranks, sets, extra if not check else [], run_out)
         if args.dry_run:
-            print("(dry run) OMP_NUM_THREADS=1 " + shlex.join(argv))
+            print(f"(dry run) OMP_NUM_THREADS=1 HARDROD_SMPI_COMPUTE={NOISE_MODES[args.machine_noise]} "
+                  + shlex.join(argv))
             continue
         run_out.mkdir(parents=True, exist_ok=True)
         print(f"  {tag}: N = {n} on {run_ranks} simulated rank(s) ...", flush=True)
@@ -205,7 +233,7 @@ def run_simulations(args, out, platform, hosts, plan):
             log.flush()
             try:
                 rc = subprocess.run(argv, stdout=log, stderr=subprocess.STDOUT, timeout=args.timeout,
-                                    env={**os.environ, "OMP_NUM_THREADS": "1"}, cwd=out).returncode
+                                    env=simulated_env(args), cwd=out).returncode
             except subprocess.TimeoutExpired:
                 rc = "timeout"
         real = time.time() - start
@@ -280,10 +308,10 @@ def plot(rows, path):
 
 COLUMNS = ["mode", "size", "ranks", "n", "steps", "step_us", "efficiency", "baseline_ranks", "compute_us",
            "agree_us", "exchanges_us", "rebuild_us", "rebuild_comm_us", "balance_us", "messages_per_step",
-           "bytes_per_step", "imbalance", "state_checksum", "check_on_one_rank", "real_seconds", "method", "dt"]
+           "bytes_per_step", "imbalance", "noise_filtered", "state_checksum", "check_on_one_rank", "real_seconds", "method", "dt"]
 
 
-def report(args, out, platform, rows, failures):
+def report(args, out, platform, rows, failures, against):
     add_efficiencies([r for r in rows if not r.get("check_on_one_rank")])
     ok, det = determinism(rows)
     rows.sort(key=lambda r: (r["mode"], r["size"], r["ranks"], bool(r.get("check_on_one_rank"))))
@@ -291,34 +319,41 @@ def report(args, out, platform, rows, failures):
     shown = [r for r in rows if not r.get("check_on_one_rank")]
     table = markdown_table(
         ["mode", "size", "ranks", "us per step", "efficiency", "compute", "agree", "exchanges", "rebuild (comm)",
-         "balance", "messages / bytes per rank-step", "imbalance", "checksum", "simulated in"],
+         "balance", "messages / bytes per rank-step", "imbalance", "noise filtered", "checksum", "simulated in"],
         [[r["mode"], r["size"], r["ranks"], g(r["step_us"], 4), g(r.get("efficiency"), 3), g(r["compute_us"], 3),
           g(r["agree_us"], 3), g(r["exchanges_us"], 3), f"{g(r['rebuild_us'], 3)} ({g(r['rebuild_comm_us'], 3)})",
           g(r["balance_us"], 2), f"{g(r['messages_per_step'], 3)} / {g(r['bytes_per_step'], 3)}",
-          g(r.get("imbalance"), 2), r["state_checksum"], f"{r['real_seconds']:.0f} s"] for r in shown])
+          g(r.get("imbalance"), 2), g(r.get("noise_filtered"), 2), r["state_checksum"], f"{r['real_seconds']:.0f} s"] for r in shown])
     notes = (f"Simulated with SimGrid's SMPI on {relpath(platform)} (its header states the model). Method "
              f"{args.method}, dt {args.dt:g}, {args.steps} steps from the aligned lattice, one thread per rank. "
              f"Times are simulated microseconds per step (after {WARMUP} steps of warm-up), per rank (means "
-             "over ranks): the step; its communication: agree (the step's reductions), exchanges (the contact or "
-             "piece exchanges), the rebuilds' migration and shadows (in brackets), balance; compute, the step less "
-             "these; rebuild, the list builds' share of the step; imbalance, the slowest rank's compute over "
-             "the mean. Weak efficiency: t(smallest) / t(P); strong: "
+             "over ranks): the step (its slowest rank); its communication: agree (the step's reductions, the wait "
+             "for the slowest rank included), exchanges (the contact or piece exchanges, waits included), the "
+             "rebuilds' migration and shadows (in brackets), balance; compute, a rank's step less its "
+             "communication; rebuild, the list builds' share of the step (every step); imbalance, the slowest rank's compute "
+             "over the mean, less 1; noise filtered, the share of the measured computation the filter took off "
+             f"(--machine-noise {args.machine_noise}). Weak efficiency: t(smallest) / t(P); strong: "
              "P0 t(P0) / (P t(P)).")
     png = out / "scaling.png"
     plot_note = plot(shown, png)
     text = (report_header("Scaling on a simulated cluster") + table + "\n\n" + notes + "\n\n" + "\n".join(det) + "\n\n"
             + ("\n".join(f"FAILED: {f}" for f in failures) + "\n\n" if failures else "")
             + ("![scaling](scaling.png)\n" if not plot_note else plot_note + "\n"))
+    if against is not None:
+        text += "\n" + simulate_real.table(against[0]) + "\n\n" + simulate_real.note(*against) + "\n"
     write_text(out / "scaling.md", text)
     write_json(out / "scaling.json", {
         "command": invocation(), "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "machine": machine_info(), "platform": relpath(platform), "method": args.method, "dt": args.dt,
-        "steps": args.steps, "rows": rows, "notes": notes, "determinism": det, "failures": failures})
+        "steps": args.steps, "machine_noise": args.machine_noise, "rows": rows, "notes": notes, "determinism": det, "failures": failures,
+        **({"against_real": against[0], "against_real_tolerance": simulate_real.TOLERANCE} if against else {})})
     print("\n" + table + "\n\n" + notes + "\n" + "\n".join(det))
     if plot_note:
         print(plot_note)
+    if against is not None:
+        print("\n" + simulate_real.table(against[0]) + "\n" + simulate_real.note(*against))
     print(f"results in {relpath(out)}/ (scaling.csv, scaling.json, scaling.md, scaling.png, runs/)")
-    return 0 if ok and not failures else 1
+    return 0 if ok and not failures and (against is None or against[1]) else 1
 
 
 def main(args):
@@ -358,4 +393,10 @@ def main(args):
     rows, failures = run_simulations(args, out, platform, hosts, plan)
     if args.dry_run:
         return 0
-    return report(args, out, platform, rows, failures)
+    against = None
+    if args.against_real > 0:
+        if not HARDROD.exists():
+            sys.exit(f"bench scaling: --against-real: {relpath(HARDROD)}: no such file (scripts/build builds it)")
+        print(f"  against real: {args.against_real} round(s) on 1 and 2 ranks ...", flush=True)
+        against = simulate_real.check(args, out, platform, hosts, sys.modules[__name__])
+    return report(args, out, platform, rows, failures, against)
