@@ -208,10 +208,8 @@ void System::redistribute() {
   holding_.clear();
   for (std::size_t i = 0; i < owned_; ++i) {
     Holding h{comm_.rank(), {}};
-    for (int r : partners)
-      if (domain_.reaches(particles_.position(i), particles_.axis(i), scene_.shape.half_length(),
-                          r))
-        h.holders.push_back(r);
+    domain_.reached_partners(particles_.position(i), particles_.axis(i),
+                             scene_.shape.half_length(), h.holders);
     for (int r : h.holders) {
       auto &buf = out[domain_.partner_slot(r)];
       pack_body(buf, particles_, i);

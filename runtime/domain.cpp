@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 namespace hardrod {
@@ -72,6 +73,21 @@ Domain::Domain(const Box &box, std::array<int, 3> grid, int rank, double shadow_
           close && arcs_distance(lo[a], hi[a], rlo[a], rhi[a], side_of(box_, a)) < partner_reach;
     if (close) partners_.push_back(r);
   }
+  for (int a = 0; a < 3; ++a) {
+    std::vector<int> &slabs = partner_slabs_[static_cast<std::size_t>(a)];
+    for (int r : partners_) slabs.push_back(coords(r)[static_cast<std::size_t>(a)]);
+    std::sort(slabs.begin(), slabs.end());
+    slabs.erase(std::unique(slabs.begin(), slabs.end()), slabs.end());
+  }
+  for (int r : partners_) {
+    std::array<int, 3> at{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      const std::vector<int> &slabs = partner_slabs_[a];
+      at[a] = static_cast<int>(std::lower_bound(slabs.begin(), slabs.end(), coords(r)[a]) -
+                               slabs.begin());
+    }
+    partner_slab_at_.push_back(at);
+  }
 }
 
 std::array<int, 3> Domain::coords(int r) const {
@@ -114,6 +130,38 @@ bool Domain::reaches(const Vec3 &centre, const Vec3 &axis, double h, int r) cons
     gap2 += gap * gap;
   }
   return gap2 < shadow_reach_ * shadow_reach_;
+}
+
+// A partner that reaches() accepts is, along every axis, within shadow_reach plus the
+// segment's extent of the centre: its gap there is at most the Euclidean norm of the gaps. The
+// slabs farther than that (by a margin over the rounding, on the same arc distances) are
+// passed over; reaches() decides for the rest, so the holders are the same as testing every
+// partner.
+void Domain::reached_partners(const Vec3 &centre, const Vec3 &axis, double h,
+                              std::vector<int> &out) const {
+  const double c[3] = {centre.x, centre.y, centre.z};
+  const double e[3] = {axis.x, axis.y, axis.z};
+  constexpr std::size_t kBits = 64;
+  std::array<std::uint64_t, 3> near{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::vector<int> &slabs = partner_slabs_[a];
+    const double side = side_of(box_, static_cast<int>(a));
+    const double limit = shadow_reach_ + std::fabs(e[a]) * h;
+    const double within = limit + 1e-9 * (limit + side);
+    for (std::size_t k = 0; k < slabs.size() && k < kBits; ++k) {
+      const auto s = static_cast<std::size_t>(slabs[k]);
+      if (arc_distance(c[a], cuts_[a][s], cuts_[a][s + 1], side) < within)
+        near[a] |= std::uint64_t{1} << k;
+    }
+  }
+  const auto is_near = [&](std::size_t a, int k) {
+    return static_cast<std::size_t>(k) >= kBits || ((near[a] >> k) & 1U) != 0;
+  };
+  for (std::size_t k = 0; k < partners_.size(); ++k) {
+    const std::array<int, 3> &at = partner_slab_at_[k];
+    if (!is_near(0, at[0]) || !is_near(1, at[1]) || !is_near(2, at[2])) continue;
+    if (reaches(centre, axis, h, partners_[k])) out.push_back(partners_[k]);
+  }
 }
 
 std::string Domain::describe() const {

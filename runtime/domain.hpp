@@ -56,6 +56,10 @@ class Domain {
   // segment's projection and the subdomain, a lower bound of the true distance, so the
   // test never misses a body that can touch.
   bool reaches(const Vec3 &centre, const Vec3 &axis, double h, int r) const;
+  // The partners that reaches() accepts for this segment, appended to `out` in partners()
+  // order; reaches() runs only on those in a slab near the segment along every axis.
+  void reached_partners(const Vec3 &centre, const Vec3 &axis, double h,
+                        std::vector<int> &out) const;
   std::array<double, 3> lower(int r) const;
   std::array<double, 3> upper(int r) const;
   std::string describe() const;
@@ -68,6 +72,10 @@ class Domain {
   double partner_reach_ = 0.0;
   Cuts cuts_;
   std::vector<int> partners_;
+  // Along each axis, the slabs the partners lie in; by partner, the position of its slab in
+  // those (reached_partners' filter).
+  std::array<std::vector<int>, 3> partner_slabs_;
+  std::vector<std::array<int, 3>> partner_slab_at_;
 };
 
 }  // namespace hardrod

@@ -124,9 +124,11 @@ void RunLoop::step_to_target() {
     sim.comm().barrier("burst");
     const Clock::time_point burst = Clock::now();
     const bool production = sim.current_step() >= scene_.equilibration_steps;
-    if (production && production_steps_ == 0)
+    if (production && production_steps_ == 0) {
       for (const auto &[name, counter] : sim.comm().traffic())
         traffic_before_production_[name] = counter.seconds;
+      timers_before_production_ = sim.timers();
+    }
     const long long before = sim.current_step();
     sim.advance(next_burst());
     const double seconds = seconds_between(burst, Clock::now());
@@ -330,6 +332,7 @@ nlohmann::json RunLoop::finish() {
   outcome.production_steps = production_steps_;
   outcome.production_step_seconds_here = production_step_seconds_;
   outcome.traffic_seconds_before_production = traffic_before_production_;
+  outcome.timers_before_production = timers_before_production_;
   nlohmann::json summary = run_summary(scene_, sim, st_, outcome, placement_, counters_);
   if (frank_) summary["frank_samples"] = frank_->samples();
   try {

@@ -90,6 +90,7 @@ class RunLoop {
   double production_step_seconds_ = 0.0;  // of those, in production
   long long production_steps_ = 0;
   std::map<std::string, double> traffic_before_production_;  // filled as production begins
+  RegionTimers timers_before_production_;                     // the same
   long long last_frame_step_ = -1;
   std::optional<Sample> last_sample_;  // for the progress line
   std::string failure_;                // the PhysicsError (or failed output) that ended the run

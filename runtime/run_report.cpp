@@ -99,28 +99,40 @@ double energy_drift(const Scene &scene, System &sim, const RunState &st) {
   return 0.0;
 }
 
-// Region timers: rank 0's, and over all ranks the slowest and the mean (load balance).
-void add_timers(nlohmann::json &summary, System &sim) {
+// Region timers: rank 0's, and over all ranks the slowest and the mean (load balance); the
+// same per production step (this segment's), which leaves out the set-up and the warm-up.
+void add_timers(nlohmann::json &summary, System &sim, const RunOutcome &outcome) {
   Communicator &comm = sim.comm();
   const auto nregions = static_cast<std::size_t>(Region::kCount);
-  std::vector<double> mine(nregions);
-  std::vector<ExactSum> total(nregions);
+  const double steps = static_cast<double>(std::max<long long>(1, outcome.production_steps));
+  std::vector<double> mine(2 * nregions);
+  std::vector<ExactSum> total(2 * nregions);
   for (std::size_t r = 0; r < nregions; ++r) {
-    mine[r] = sim.timers().seconds(static_cast<Region>(r));
+    const auto region = static_cast<Region>(r);
+    mine[r] = sim.timers().seconds(region);
+    mine[nregions + r] =
+        outcome.production_steps > 0
+            ? (mine[r] - outcome.timers_before_production.seconds(region)) / steps
+            : 0.0;
     total[r].add(mine[r]);
+    total[nregions + r].add(mine[nregions + r]);
   }
   const std::vector<double> slowest = comm.max("summary", mine);
   total = comm.sum("summary", total);
-  nlohmann::json timers, most, mean;
+  nlohmann::json timers, most, mean, production_most, production_mean;
   for (std::size_t r = 0; r < nregions; ++r) {
     const char *name = region_name(static_cast<Region>(r));
     timers[name] = mine[r];
     most[name] = slowest[r];
     mean[name] = total[r].value() / comm.size();
+    production_most[name] = slowest[nregions + r];
+    production_mean[name] = total[nregions + r].value() / comm.size();
   }
   summary["timers"] = timers;
   summary["timers_rank_max"] = most;
   summary["timers_rank_mean"] = mean;
+  summary["production_timers_per_step"] = {{"rank_mean", production_mean},
+                                           {"rank_max", production_most}};
 }
 
 // Communication per step per rank, averaged over ranks, by communication step: messages, bytes
@@ -328,7 +340,7 @@ nlohmann::json run_summary(const Scene &scene, System &sim, const RunState &st,
   summary.update(cost_json(scene, sim, st, outcome, placement, steps_done));
   summary["state_checksum"] = sim.state_checksum();
   summary.update(provenance_json(agreed_provenance(comm)));
-  add_timers(summary, sim);
+  add_timers(summary, sim, outcome);
   {  // the shares of detections that went through the watches, or the near pairs, over all ranks
     const long long all = comm.sum("summary", sim.detections());
     const long long watched = comm.sum("summary", sim.detections_watched());

@@ -61,8 +61,10 @@ struct RunOutcome {
   double production_seconds_per_step = 0.0;  // the same, per production step (0: none)
   long long production_steps = 0;             // this segment's
   double production_step_seconds_here = 0.0;  // in them, this rank
-  // Each communication's seconds on this rank when this segment's production began.
+  // Each communication's seconds and the region timers on this rank when this segment's
+  // production began.
   std::map<std::string, double> traffic_seconds_before_production;
+  RegionTimers timers_before_production;
 };
 
 // Collective: summary.json's contents (the same on every rank, except the Frank sample count

@@ -77,6 +77,50 @@ TEST(Domain, MovedCutsOwnAndPartnerConsistently) {
   EXPECT_NE(std::find(p0.begin(), p0.end(), 1), p0.end());
 }
 
+// reached_partners gives the holders of testing every partner with reaches(): on even and
+// moved cuts, grids with one, two and many slabs, segments anywhere (also just at the reach).
+TEST(Domain, ReachedPartnersAreThoseEveryPartnerTestAccepts) {
+  const Box box = box_of(40.0, 36.0, 30.0);
+  struct Case {
+    std::array<int, 3> grid;
+    Cuts cuts;
+  };
+  const std::vector<Case> cases{
+      {{4, 2, 1}, {{{0.0, 6.0, 17.5, 31.0, 40.0}, {0.0, 25.0, 36.0}, {0.0, 30.0}}}},
+      {{4, 4, 4}, {}},
+      {{2, 3, 5}, {}},
+      {{8, 1, 2}, {}}};
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-0.5, 1.5), n(-1.0, 1.0);
+  long long accepted = 0, tested = 0;
+  for (const Case &c : cases) {
+    const Box &b = box;
+    const int ranks = c.grid[0] * c.grid[1] * c.grid[2];
+    for (int r = 0; r < ranks; r += 3) {
+      const Domain d(b, c.grid, r, 3.9, 7.0, c.cuts);
+      const auto lo = d.lower(r), hi = d.upper(r);
+      for (int k = 0; k < 4000; ++k) {
+        Vec3 e{n(rng), n(rng), n(rng)};
+        e = (1.0 / std::sqrt(dot(e, e))) * e;
+        // Centres in and around the subdomain; every fourth one at the reach from a face.
+        Vec3 x{lo[0] + u(rng) * (hi[0] - lo[0]), lo[1] + u(rng) * (hi[1] - lo[1]),
+               lo[2] + u(rng) * (hi[2] - lo[2])};
+        if (k % 4 == 0) x.x = hi[0] + d.shadow_reach() + std::fabs(e.x) * 2.5;
+        std::vector<int> fast;
+        d.reached_partners(x, e, 2.5, fast);
+        std::vector<int> every;
+        for (int q : d.partners())
+          if (d.reaches(x, e, 2.5, q)) every.push_back(q);
+        ASSERT_EQ(fast, every) << "rank " << r << " of " << ranks;
+        accepted += static_cast<long long>(every.size());
+        tested += static_cast<long long>(d.partners().size());
+      }
+    }
+  }
+  EXPECT_GT(accepted, 0);
+  EXPECT_LT(accepted, tested);  // some partners are reached, not all
+}
+
 TEST(Domain, RejectsCutsThatDoNotRise) {
   const Box box = box_of(10.0, 10.0, 10.0);
   Cuts c = Domain::uniform_cuts(box, {2, 1, 1});

@@ -45,7 +45,7 @@ NOT_PHYSICS = {
     "timers", "timers_rank_max", "timers_rank_mean", "hardware_counters", "communication_per_rank", "placement", "binding",
     "topology", "threads", "ranks", "grid", "segments", "first_step",
     "narrow_phase_tests_per_step", "neighbor_list_builds", "status", "stopped_by", "detect_watched_share",
-    "detect_near_share", "production_compute_seconds_per_step", "simulated_compute",
+    "detect_near_share", "production_compute_seconds_per_step", "production_timers_per_step", "simulated_compute",
     "balance", "spanning_clusters", "command_line", "started_at",
     "exact",  # the exact method's work of this process (a cost diagnostic)
 }
