@@ -142,4 +142,27 @@ EquilibrationCheck check_equilibration(const std::vector<double> &series) {
   return check;
 }
 
+MserCut mser_cut(const std::vector<double> &series, int batch) {
+  const std::size_t m = series.size() / static_cast<std::size_t>(batch);
+  if (m < 8) return {};
+  std::vector<double> y(m, 0.0);
+  for (std::size_t i = 0; i < m; ++i) {
+    for (int j = 0; j < batch; ++j) y[i] += series[i * batch + j];
+    y[i] /= batch;
+  }
+  double best = 0.0;
+  std::size_t best_d = 0;
+  for (std::size_t d = 0; d <= m / 2; ++d) {
+    const double n = static_cast<double>(m - d);
+    double mean = 0.0;
+    for (std::size_t i = d; i < m; ++i) mean += y[i];
+    mean /= n;
+    double ss = 0.0;
+    for (std::size_t i = d; i < m; ++i) ss += (y[i] - mean) * (y[i] - mean);
+    const double score = ss / (n * n);
+    if (d == 0 || score < best) best = score, best_d = d;
+  }
+  return {static_cast<long long>(best_d) * batch, best_d == m / 2};
+}
+
 }  // namespace hardrod

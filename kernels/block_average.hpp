@@ -49,4 +49,15 @@ struct EquilibrationCheck {
 
 EquilibrationCheck check_equilibration(const std::vector<double> &series);
 
+// MSER-5 (White, Simulation 69, 323 (1997)): the cut d, in batches of `batch` samples and at
+// most half the series, that minimises the squared standard error of the rest, var / (n - d).
+// A cut at that cap says the series never settled over its first half, not where it did.
+// Below 8 batches: cut 0, not at the cap.
+struct MserCut {
+  long long samples = 0;  // samples to drop
+  bool at_cap = false;
+};
+
+MserCut mser_cut(const std::vector<double> &series, int batch = 5);
+
 }  // namespace hardrod

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "kernels/frank_fit.hpp"
+#include "runtime/analyze_verdict.hpp"
 #include "runtime/frank_io.hpp"
 
 namespace hardrod {
@@ -74,6 +75,32 @@ void add_frank_constants(nlohmann::json &out, const FrankResult &r) {
     out["K3_from_E13"][name] = estimate(f->K3_13, f->chi2_13, f->bins_13);
     out["K3_from_E23"][name] = estimate(f->K3_23, f->chi2_23, f->bins_23);
   }
+}
+
+// Per fit {trusted, reason}; the same verdict beside each of its estimates.
+void add_fit_verdicts(nlohmann::json &out, const FrankResult &r, bool equilibrated) {
+  const std::pair<const char *, const FrankModelFit *> models[] = {
+      {"planar", &r.planar}, {"cubic", &r.cubic}, {"background", &r.background}};
+  for (const auto &[name, f] : models) {
+    const nlohmann::json v = judge_fit(*f, equilibrated);
+    out["frank_fits"][name] = v;
+    for (const char *k : {"K1", "K2", "K3", "K3_from_E13", "K3_from_E23"})
+      out[k][name]["trusted"] = v["trusted"];
+  }
+}
+
+// The warnings, in words, before any number.
+void print_warnings(const nlohmann::json &out) {
+  for (const auto &run : out["equilibration"]["runs"])
+    for (const auto &why : run["reasons"])
+      fmt::print("WARNING: {} is not equilibrated: {}\n", run["run"].get<std::string>(),
+                 why.get<std::string>());
+  if (!out.contains("frank_fits")) return;
+  for (const auto &[name, v] : out["frank_fits"].items())
+    if (!v["trusted"].get<bool>())
+      fmt::print("WARNING: the {} fit{} is not trusted: {}\n", name,
+                 name == out["frank_recommended_fit"] ? " (the recommended one)" : "",
+                 v["reason"].get<std::string>());
 }
 
 std::string pm(const nlohmann::json &e) {
@@ -171,7 +198,9 @@ void report(const nlohmann::json &out, const fs::path &outdir, const AnalyzeOpti
     std::ofstream f(outdir / "analysis.json");
     f << out.dump(2) << "\n";
   }
-  fmt::print("analysis of {} run(s):\n", options.run_dirs.size());
+  print_warnings(out);
+  fmt::print("analysis of {} run(s){}:\n", options.run_dirs.size(),
+             out["equilibrated"].get<bool>() ? "" : " (NOT EQUILIBRATED: see the warnings)");
   fmt::print("  order parameter S   {}\n", pm(out["order_parameter"]));
   fmt::print("  pressure P*         {}\n", pm(out["pressure_star"]));
   if (out.contains("K1")) print_frank(out, options.frank);
@@ -190,6 +219,13 @@ void plot(const fs::path &outdir, const AnalyzeOptions &options) {
 
 }  // namespace
 
+bool analysis_trusted(const nlohmann::json &analysis) {
+  if (!analysis.value("equilibrated", false)) return false;
+  if (!analysis.contains("frank_fits")) return true;
+  const std::string fit = analysis["frank_recommended_fit"].get<std::string>();
+  return analysis["frank_fits"][fit]["trusted"].get<bool>();
+}
+
 nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   if (options.run_dirs.empty()) throw std::runtime_error("analyze: no run directory given");
   check_distinct(options.run_dirs);
@@ -203,6 +239,14 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   out["order_parameter"] = merge_estimates(summaries, "order_parameter");
   out["pressure_star"] = merge_estimates(summaries, "pressure_star");
   out["samples"] = out["order_parameter"]["samples"];
+  nlohmann::json runs = nlohmann::json::array();
+  bool equilibrated = true;
+  for (std::size_t k = 0; k < summaries.size(); ++k) {
+    runs.push_back(judge_run(options.run_dirs[k], summaries[k]));
+    equilibrated = equilibrated && runs.back()["equilibrated"].get<bool>();
+  }
+  out["equilibrated"] = equilibrated;
+  out["equilibration"] = {{"runs", runs}};
   if (!frank.empty() && frank.size() != options.run_dirs.size())
     throw std::runtime_error(
         fmt::format("analyze: {} of {} run directories have frank.json; merge only runs made with "
@@ -212,6 +256,7 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
     const FrankResult r = fit_frank(frank, options.frank);
     add_frank_constants(out, r);
     out["frank_recommended_fit"] = "cubic";  // why: docs/frank.md
+    add_fit_verdicts(out, r, equilibrated);
     out["frank"] = to_json(r);
     out["fourier_samples"] = r.samples;
   }

@@ -200,6 +200,9 @@ CLI::App *add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &n
                    "cubic and background fits: bins with k3^2 up to this, D^-2 (default 1)")
       ->check(CLI::PositiveNumber);
   analyze->add_flag("--no-plots", no_plots, "skip the PNG figures");
+  analyze->add_flag("--strict", o.strict,
+                    "exit 3 when a run is not equilibrated or the recommended fit is not trusted "
+                    "(analysis.json is written all the same)");
   return analyze;
 }
 
@@ -222,7 +225,12 @@ int export_command(const ExportArgs &x) {
 int analyze_command(hardrod::AnalyzeOptions &o, bool no_plots) {
   o.plots = !no_plots;
   try {
-    hardrod::analyze_runs(o);
+    const nlohmann::json analysis = hardrod::analyze_runs(o);
+    if (o.strict && !hardrod::analysis_trusted(analysis)) {
+      fmt::print(stderr, "hardrod analyze: --strict: the analysis is not trusted (see the "
+                         "warnings and analysis.json's equilibrated and frank_fits)\n");
+      return 3;
+    }
   } catch (const std::exception &e) {
     fmt::print(stderr, "hardrod analyze: {}\n", e.what());
     return 2;

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .common import HARDROD, ROOT, relpath
 from .outputs import analyze_runs, order_parameter_series
-from .stats import drift_check, mser_cut
+from .stats import drift_check, mser
 
 # The paper's Table 1 (N = 18432, rho* = 0.5, L/D = 5) and the rows it compares with; K in
 # units of kT / D. Allen & Frenkel's K are rescaled by 9/4 as in the paper.
@@ -37,12 +37,13 @@ def run_equilibration(run_dir):
     """One run's S(t) from the lattice start: the MSER-5 cut (White 1997, at most half the
     series) and the production's drift, mean S of the last third minus the first third."""
     t, phase, S = order_parameter_series(run_dir)
-    cut = mser_cut(S)
+    cut, at_cap = mser(S)
     t_cut = t[cut] if cut < len(t) else float("nan")
     t_prod = next((ti for ti, p in zip(t, phase) if p == "production"), float("nan"))
     prod = [s for s, p in zip(S, phase) if p == "production"]
-    return {"run": relpath(run_dir), "mser_cut_tau": t_cut, "production_starts_tau": t_prod,
-            "cut_inside_equilibration": bool(t_cut < t_prod), "drift": drift_check(prod)}
+    return {"run": relpath(run_dir), "mser_cut_tau": t_cut, "cut_at_cap": bool(at_cap),
+            "production_starts_tau": t_prod,
+            "cut_inside_equilibration": bool(t_cut < t_prod and not at_cap), "drift": drift_check(prod)}
 
 
 def mean_series_cut(runs):
@@ -51,10 +52,10 @@ def mean_series_cut(runs):
     series_ = [order_parameter_series(ROOT / r["run"]) for r in runs]
     n = min(len(t) for t, _, _ in series_)
     if n == 0:
-        return float("nan")
+        return float("nan"), False
     mean = [sum(S[i] for _, _, S in series_) / len(series_) for i in range(n)]
-    cut = mser_cut(mean)
-    return series_[0][0][cut] if cut < n else float("nan")
+    cut, at_cap = mser(mean)
+    return (series_[0][0][cut] if cut < n else float("nan")), at_cap
 
 
 def equilibration_verdict(runs):
@@ -64,8 +65,9 @@ def equilibration_verdict(runs):
     than a third of the production (tens of tau), and a relaxation still under way would drift
     every seed the same way. With fewer than three seeds, each run's block error is used."""
     drifts = [r["drift"] for r in runs if r["drift"]]
-    mean_cut = mean_series_cut(runs)
-    cuts_ok = mean_cut < runs[0]["production_starts_tau"]
+    mean_cut, mean_at_cap = mean_series_cut(runs)
+    # A cut at the search's cap is no cut: the series was still moving over its first half.
+    cuts_ok = mean_cut < runs[0]["production_starts_tau"] and not mean_at_cap
     if len(drifts) >= 3:
         d = [x["drift"] for x in drifts]
         mean = sum(d) / len(d)
@@ -79,7 +81,8 @@ def equilibration_verdict(runs):
         return {"equilibrated": False, "why": "production too short for a drift check", "runs": runs}
     ok = cuts_ok and abs(mean) <= 3.0 * error
     return {"equilibrated": bool(ok), "drift": mean, "drift_error": error, "drift_error_from": how,
-            "mean_series_cut_tau": mean_cut, "cut_inside_equilibration": cuts_ok, "runs": runs}
+            "mean_series_cut_tau": mean_cut, "mean_series_cut_at_cap": bool(mean_at_cap),
+            "cut_inside_equilibration": cuts_ok, "runs": runs}
 
 
 def pm(e, digits=3):
@@ -125,20 +128,23 @@ def markdown(rows, args):
     for name, P, S, K1, K2, K3 in LITERATURE:
         lines.append(f"| {name} | | {P} | {S} | {K1} | {K2} | {K3} | | | |")
     lines += ["", "Equilibration, judged from S(t) sampled from t = 0: the MSER-5 cut of the seed-averaged "
-              "S(t) inside the equilibration, and the production drift (mean S of the last third - the "
-              "first third), averaged over the seeds, zero within 3 errors (error from the seeds' spread):", ""]
+              "S(t) inside the equilibration and below the search's cap (half the series), and the "
+              "production drift (mean S of the last third - the first third), averaged over the seeds, "
+              "zero within 3 errors (error from the seeds' spread):", ""]
     for r in rows:
         e = r["equilibration"]
         if "drift" in e:
             lines.append(f"- N = {r['N']}: cut of the mean S(t) at {e['mean_series_cut_tau']:.1f} tau "
-                         f"({'inside' if e['cut_inside_equilibration'] else 'AFTER'} the equilibration), "
-                         f"drift {e['drift']:+.4f} +/- {e['drift_error']:.4f} ({e['drift_error_from']}): "
+                         + ("(at the search's cap: S(t) never settled), " if e.get("mean_series_cut_at_cap") else
+                            f"({'inside' if e['cut_inside_equilibration'] else 'AFTER'} the equilibration), ")
+                         + f"drift {e['drift']:+.4f} +/- {e['drift_error']:.4f} ({e['drift_error_from']}): "
                          + ("equilibrated" if e["equilibrated"] else "NOT EQUILIBRATED"))
         else:
             lines.append(f"- N = {r['N']}: NOT JUDGED ({e['why']})")
         for v in e["runs"]:
             d = v["drift"] or {}
-            lines.append(f"  - {Path(v['run']).name}: MSER-5 cut at {v['mser_cut_tau']:.1f} tau, drift "
+            lines.append(f"  - {Path(v['run']).name}: MSER-5 cut at {v['mser_cut_tau']:.1f} tau"
+                         f"{' (at the cap)' if v.get('cut_at_cap') else ''}, drift "
                          f"{d.get('drift', float('nan')):+.4f} (block error {d.get('drift_error', float('nan')):.4f})")
     return "\n".join(lines) + "\n"
 

@@ -140,12 +140,13 @@ def conservative_block_error(x):
     return max(level.error for level in blocking_levels(x) if level.blocks >= FALLBACK_BLOCKS)
 
 
-def mser_cut(x, batch=5):
-    """Samples to drop as equilibration: MSER-5 (White 1997), the cut d (in batches of 5, at most
-    half the series) minimising the squared standard error of the rest, var / (n - d)."""
+def mser(x, batch=5):
+    """MSER-5 (White 1997): the cut d (in batches of 5, at most half the series) minimising the
+    squared standard error of the rest, var / (n - d). Returns (samples to drop, at_cap): a cut
+    at the search's cap (half the series) means the series never settled, not a cut."""
     m = len(x) // batch
     if m < 8:
-        return 0
+        return 0, False
     y = [sum(x[i * batch:(i + 1) * batch]) / batch for i in range(m)]
     best, best_d = None, 0
     for d in range(0, m // 2 + 1):
@@ -154,7 +155,12 @@ def mser_cut(x, batch=5):
         score = sum((v - mean) ** 2 for v in rest) / len(rest) ** 2
         if best is None or score < best:
             best, best_d = score, d
-    return best_d * batch
+    return best_d * batch, best_d == m // 2
+
+
+def mser_cut(x, batch=5):
+    """Samples to drop as equilibration by MSER-5 (`mser`), the cap not told apart."""
+    return mser(x, batch)[0]
 
 
 def drift_check(series):

@@ -102,13 +102,29 @@ TEST(FrankSynthetic, RecoversPrescribedConstantsInBothBoxesWithHonestErrors) {
   EXPECT_LT(independent.planar.K2.error, f.K2.fit_error / 1.5);
   EXPECT_EQ(independent.replicas, 0);
 
-  // Negative control: S = 1 in the normalisation scales every K by 1 / S^2 ~ 1.7.
-  FrankAccumulator control(Box{{small.side, small.side, small.side}}, 2304, small.kmax,
-                           block_config());
-  accumulate(small, 60, 5, control, nullptr);
-  const FrankResult right = fit_frank({control}, fit_options(true));
-  EXPECT_GT(right.planar.K3.value, 0.7 * small.K3);
-  EXPECT_LT(right.planar.K3.value, 1.3 * small.K3);
+}
+
+// Negative control: the same configurations told S = 1 in the normalisation instead of the
+// measured S must fail the recovery that the right normalisation passes: every K scales by
+// 1 / <S^2> (~2 here), and the check must see it.
+TEST(FrankSynthetic, NegativeControlBrokenNormalisationFailsTheRecovery) {
+  SyntheticNematic small = everyday_box();
+  small.kmax = 6;
+  const Box box{{small.side, small.side, small.side}};
+  FrankAccumulator right(box, 2304, small.kmax, block_config());
+  FrankAccumulator broken(box, 2304, small.kmax, block_config());
+  accumulate(small, 60, 5, right, &broken);
+  const FrankResult r = fit_frank({right}, fit_options(true));
+  const FrankResult b = fit_frank({broken}, fit_options(true));
+  report("plane, subtracted, S measured", r.planar);
+  report("plane, subtracted, S = 1 (broken)", b.planar);
+  const auto recovered = [&](double value, double want) {
+    return std::fabs(value - want) <= 0.3 * want;
+  };
+  EXPECT_TRUE(recovered(r.planar.K3.value, small.K3)) << r.planar.K3.value;
+  EXPECT_FALSE(recovered(b.planar.K3.value, small.K3)) << b.planar.K3.value;
+  EXPECT_FALSE(recovered(b.planar.K2.value, small.K2)) << b.planar.K2.value;
+  EXPECT_NEAR(b.planar.K3.value / r.planar.K3.value, 1.0 / r.mean_S2, 0.05 / r.mean_S2);
 }
 
 // The cubic over the paper's range in the everyday box (kmax = 6 reaches k3^2 = 1.2): the

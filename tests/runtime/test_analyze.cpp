@@ -53,6 +53,13 @@ TEST(Analyze, MergesRunsIntoThePublicKeys) {
   EXPECT_GT(out["order_parameter"]["mean"].get<double>(), 0.5);
   EXPECT_TRUE(out["pressure_star"]["error"].is_number());
   EXPECT_TRUE(fs::exists(fs::path(options.output_dir) / "analysis.json"));
+  // 12 production samples: too short to judge, so not equilibrated, and no fit trusted.
+  EXPECT_FALSE(out["equilibrated"].get<bool>());
+  ASSERT_EQ(out["equilibration"]["runs"].size(), 2u);
+  EXPECT_FALSE(out["equilibration"]["runs"][0]["reasons"].empty());
+  for (const char *model : {"planar", "cubic", "background"})
+    EXPECT_FALSE(out["frank_fits"][model]["trusted"].get<bool>()) << model;
+  EXPECT_FALSE(analysis_trusted(out));
 }
 
 TEST(Analyze, RefusesMixedRunsAndMissingFiles) {
