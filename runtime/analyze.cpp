@@ -1,6 +1,7 @@
 #include "runtime/analyze.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -11,6 +12,7 @@
 #include "kernels/frank_fit.hpp"
 #include "runtime/analyze_verdict.hpp"
 #include "runtime/frank_io.hpp"
+#include "runtime/run_files.hpp"
 
 namespace hardrod {
 
@@ -163,6 +165,35 @@ void check_same_system(const std::vector<std::string> &dirs,
           dirs[0], system(summaries[0]), dirs[k], system(summaries[k])));
 }
 
+// Runs merge as independent samples of one protocol: the same dt and method (P* carries a dt
+// bias under the midpoint method), and Fourier modes to the same kmax, unless the user allows
+// mixing; never two copies of one trajectory (same seed or same final state).
+void check_same_protocol(const std::vector<std::string> &dirs,
+                         const std::vector<nlohmann::json> &summaries, bool allow_mixed) {
+  const auto text = [](const nlohmann::json &s, const char *key) {
+    return s.contains(key) ? s[key].dump() : std::string("absent");
+  };
+  for (std::size_t k = 1; k < summaries.size(); ++k) {
+    for (std::size_t j = 0; j < k; ++j)
+      for (const char *key : {"seed", "state_checksum"})
+        if (summaries[k].contains(key) && text(summaries[k], key) == text(summaries[j], key))
+          throw std::runtime_error(fmt::format(
+              "analyze: {} and {} have the same {} ({}): copies of one run are not independent "
+              "samples; give each run once (runs of one scene differ in init.seed)",
+              dirs[j], dirs[k], key, text(summaries[k], key)));
+    if (allow_mixed) continue;
+    std::vector<std::string> differ;
+    for (const char *key : {"dt", "method"})
+      if (text(summaries[k], key) != text(summaries[0], key))
+        differ.push_back(fmt::format("run.{} {} against {}", key, text(summaries[0], key),
+                                     text(summaries[k], key)));
+    if (!differ.empty())
+      throw std::runtime_error(fmt::format(
+          "analyze: {} and {} differ in {}; merge runs of one protocol, or pass --allow-mixed",
+          dirs[0], dirs[k], fmt::join(differ, ", ")));
+  }
+}
+
 // Each run directory at most once.
 void check_distinct(const std::vector<std::string> &dirs) {
   for (size_t a = 0; a < dirs.size(); ++a)
@@ -194,10 +225,7 @@ void load_runs(const std::vector<std::string> &dirs, std::vector<nlohmann::json>
 // analysis.json in outdir, and the results on the terminal.
 void report(const nlohmann::json &out, const fs::path &outdir, const AnalyzeOptions &options) {
   fs::create_directories(outdir);
-  {
-    std::ofstream f(outdir / "analysis.json");
-    f << out.dump(2) << "\n";
-  }
+  write_atomically(outdir / "analysis.json", out.dump(2) + "\n");  // checked: never a short file
   print_warnings(out);
   fmt::print("analysis of {} run(s){}:\n", options.run_dirs.size(),
              out["equilibrated"].get<bool>() ? "" : " (NOT EQUILIBRATED: see the warnings)");
@@ -233,6 +261,7 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
   std::vector<FrankAccumulator> frank;
   load_runs(options.run_dirs, summaries, frank);
   check_same_system(options.run_dirs, summaries);
+  check_same_protocol(options.run_dirs, summaries, options.allow_mixed);
   nlohmann::json out;
   out["runs"] = options.run_dirs.size();
   out["run_dirs"] = options.run_dirs;
@@ -252,6 +281,13 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
         fmt::format("analyze: {} of {} run directories have frank.json; merge only runs made with "
                     "[observables] frank = true",
                     frank.size(), options.run_dirs.size()));
+  if (!frank.empty() && !options.allow_mixed)
+    for (std::size_t k = 1; k < frank.size(); ++k)
+      if (frank[k].kmax() != frank[0].kmax())
+        throw std::runtime_error(fmt::format(
+            "analyze: {} and {} differ in observables.fourier_kmax ({} against {}); merge runs "
+            "of one protocol, or pass --allow-mixed",
+            options.run_dirs[0], options.run_dirs[k], frank[0].kmax(), frank[k].kmax()));
   if (!frank.empty()) {
     const FrankResult r = fit_frank(frank, options.frank);
     add_frank_constants(out, r);

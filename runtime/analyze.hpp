@@ -20,7 +20,8 @@ struct AnalyzeOptions {
   std::string output_dir;  // default: the first run directory
   FrankFitOptions frank;   // ranges, self-term subtraction (kT is taken as 1)
   bool plots = true;
-  bool strict = false;  // `--strict`: an untrusted analysis is an error (exit 3)
+  bool strict = false;       // `--strict`: an untrusted analysis is an error (exit 3)
+  bool allow_mixed = false;  // `--allow-mixed`: merge runs of different dt, method or kmax
 };
 
 // Throws std::runtime_error with a message naming the file for unreadable input.

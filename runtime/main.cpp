@@ -200,6 +200,8 @@ CLI::App *add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &n
                    "cubic and background fits: bins with k3^2 up to this, D^-2 (default 1)")
       ->check(CLI::PositiveNumber);
   analyze->add_flag("--no-plots", no_plots, "skip the PNG figures");
+  analyze->add_flag("--allow-mixed", o.allow_mixed,
+                    "merge runs of different run.dt, run.method or observables.fourier_kmax");
   analyze->add_flag("--strict", o.strict,
                     "exit 3 when a run is not equilibrated or the recommended fit is not trusted "
                     "(analysis.json is written all the same)");

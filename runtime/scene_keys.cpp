@@ -183,7 +183,7 @@ constexpr KeySpec kKeys[] = {
     {.section = "observables", .name = "frank", .type = kBoolean, .member = &Scene::frank,
      .help = "accumulate the Fourier order tensor (Frank constants)"},
     {.section = "observables", .name = "fourier_kmax", .type = kInteger,
-     .member = &Scene::fourier_kmax, .limit = integers(1, 64), .fallback = fourier_kmax_from_box,
+     .member = &Scene::fourier_kmax, .limit = integers(2, 64), .fallback = fourier_kmax_from_box,
      .default_text = "1 + round(L / 2 pi), L the longest side",
      .help = "Fourier modes -kmax < k_a < kmax, k != 0"},
     {.section = "observables", .name = "fourier_interval", .type = kInteger,

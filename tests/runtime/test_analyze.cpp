@@ -14,7 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string short_frank_run(unsigned long long seed, bool frank) {
+std::string short_frank_run(unsigned long long seed, bool frank, int kmax = 3) {
   Scene scene = testing::small_nematic(2e-4);
   scene.seed = seed;
   scene.equilibration_steps = 200;
@@ -22,10 +22,11 @@ std::string short_frank_run(unsigned long long seed, bool frank) {
   scene.sample_interval = 100;
   scene.thermostat_interval = 200;
   scene.frank = frank;
-  scene.fourier_kmax = 3;
+  scene.fourier_kmax = kmax;
   scene.fourier_interval = 50;
   const fs::path dir =
-      fs::temp_directory_path() / ("hardrod-analyze-" + std::to_string(seed) + (frank ? "f" : "n"));
+      fs::temp_directory_path() /
+      ("hardrod-analyze-" + std::to_string(seed) + (frank ? "f" : "n") + std::to_string(kmax));
   fs::remove_all(dir);
   RunOptions options;
   options.output_dir = dir.string();
@@ -95,11 +96,13 @@ std::string fake_run(const std::string &name, const nlohmann::json &changes) {
   return dir.string();
 }
 
-std::string refusal(const std::vector<std::string> &dirs) {
+std::string refusal(const std::vector<std::string> &dirs, bool allow_mixed = false,
+                    const std::string &out = "hardrod-analyze-fake-out") {
   AnalyzeOptions options;
   options.plots = false;
   options.run_dirs = dirs;
-  options.output_dir = (fs::temp_directory_path() / "hardrod-analyze-fake-out").string();
+  options.allow_mixed = allow_mixed;
+  options.output_dir = (fs::temp_directory_path() / out).string();
   try {
     analyze_runs(options);
   } catch (const std::runtime_error &e) {
@@ -125,6 +128,48 @@ TEST(Analyze, RefusesRunsWithoutResultsAndOfDifferentSystems) {
   EXPECT_NE(mixed.find("n = 768"), std::string::npos) << mixed;
   EXPECT_NE(mixed.find("n = 2304"), std::string::npos) << mixed;
   EXPECT_NE(mixed.find("different systems"), std::string::npos) << mixed;
+}
+
+// Copies of one run (same seed, or same final state) are one sample, not two; runs of
+// different dt, method or Fourier kmax are different protocols unless the user allows it.
+TEST(Analyze, RefusesCopiesAndMixedProtocols) {
+  const nlohmann::json base = {
+      {"seed", 1}, {"dt", 1e-4}, {"method", "midpoint"}, {"state_checksum", "0a"}};
+  const auto with = [&](const nlohmann::json &changes) {
+    nlohmann::json j = base;
+    j.update(changes);
+    return j;
+  };
+  const std::string a = fake_run("proto-a", base);
+  const std::string copy = fake_run("proto-copy", base);
+  EXPECT_NE(refusal({a, copy}).find("the same seed (1)"), std::string::npos) << refusal({a, copy});
+  const std::string same_state = fake_run("proto-state", with({{"seed", 2}}));
+  EXPECT_NE(refusal({a, same_state}).find("the same state_checksum"), std::string::npos);
+  const std::string b = fake_run("proto-b", with({{"seed", 2}, {"state_checksum", "0b"}}));
+  EXPECT_EQ(refusal({a, b}), "");
+  const std::string dt = fake_run("proto-dt", with({{"seed", 3}, {"state_checksum", "0c"}, {"dt", 2e-4}}));
+  const std::string mixed = refusal({a, dt});
+  EXPECT_NE(mixed.find("run.dt 0.0001 against 0.0002"), std::string::npos) << mixed;
+  EXPECT_NE(mixed.find("--allow-mixed"), std::string::npos) << mixed;
+  EXPECT_EQ(refusal({a, dt}, true), "");
+  const std::string exact =
+      fake_run("proto-exact", with({{"seed", 4}, {"state_checksum", "0d"}, {"method", "exact"}}));
+  EXPECT_NE(refusal({a, exact}).find("run.method"), std::string::npos);
+  // Fourier modes to another kmax: a different estimator of the same K.
+  const std::string k3 = short_frank_run(5, true, 3), k4 = short_frank_run(6, true, 4);
+  const std::string kmax = refusal({k3, k4});
+  EXPECT_NE(kmax.find("observables.fourier_kmax (3 against 4)"), std::string::npos) << kmax;
+}
+
+// analysis.json that cannot be written is an error naming the file, never "written".
+TEST(Analyze, AFailedWriteIsAnError) {
+  const std::string good = fake_run("write-good", {});
+  const fs::path out = fs::temp_directory_path() / "hardrod-analyze-unwritable";
+  fs::remove_all(out);
+  fs::create_directories(out / "analysis.json.tmp");  // where the file would be written first
+  const std::string why = refusal({good}, false, "hardrod-analyze-unwritable");
+  EXPECT_NE(why.find("cannot write"), std::string::npos) << why;
+  EXPECT_FALSE(fs::exists(out / "analysis.json"));
 }
 
 }  // namespace
