@@ -8,13 +8,25 @@ namespace hardrod {
 
 namespace {
 volatile std::sig_atomic_t g_stop_signal = 0;
-extern "C" void on_stop_signal(int signal) { g_stop_signal = signal; }
+volatile std::sig_atomic_t g_interrupts = 0;
+
+// The first stop signal is kept. A second Ctrl-C kills at once (a person at the terminal means
+// it); a repeated SIGTERM or SIGUSR1 (schedulers and wrappers often send their warning twice)
+// waits for the checkpoint like the first. signal() and raise() are async-signal-safe.
+extern "C" void on_stop_signal(int signal) {
+  if (signal == SIGINT && ++g_interrupts >= 2) {
+    std::signal(SIGINT, SIG_DFL);
+    std::raise(SIGINT);
+    return;
+  }
+  if (g_stop_signal == 0) g_stop_signal = signal;
+}
 }  // namespace
 
 void install_stop_signals() {
   struct sigaction action {};
   action.sa_handler = on_stop_signal;
-  action.sa_flags = SA_RESETHAND;  // a second signal acts at once (Ctrl-C twice kills)
+  action.sa_flags = 0;
   sigemptyset(&action.sa_mask);
   for (int s : {SIGTERM, SIGUSR1, SIGINT}) sigaction(s, &action, nullptr);
 }

@@ -8,11 +8,12 @@
 
 namespace hardrod {
 
-// Installed by main() before MPI starts, so a signal during start-up is not lost either; a
-// second signal of the same kind takes its default action (Ctrl-C twice kills at once)
-// (batch systems send SIGTERM, or a chosen signal, some time before the wall-clock limit).
+// Installed by main() before MPI starts, so a signal during start-up is not lost either. Only a
+// second Ctrl-C takes the default action (kills at once); a repeated SIGTERM or SIGUSR1 (batch
+// systems send one, or a chosen signal, some time before the wall-clock limit, and some send it
+// twice) still waits for the checkpoint.
 void install_stop_signals();
-int stop_signal();  // the last stop signal received, 0 if none
+int stop_signal();  // the first stop signal received, 0 if none
 // "SIGTERM", "SIGUSR1", "SIGINT", or "a signal to another rank" when none arrived here.
 std::string stop_signal_name();
 
