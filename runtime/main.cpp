@@ -15,6 +15,7 @@
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
+#include <array>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -39,10 +40,10 @@
 
 namespace {
 
-// A check for options that take a positive whole number, naming the option and the value.
-CLI::Validator positive(const std::string &option) {
+// A check for options that take a whole number in [1, largest], naming the option and the value.
+CLI::Validator positive(const std::string &option, long long largest) {
   return CLI::Validator(
-      [option](std::string &value) {
+      [option, largest](std::string &value) {
         std::size_t used = 0;
         long long n = 0;
         try {
@@ -52,9 +53,41 @@ CLI::Validator positive(const std::string &option) {
         }
         if (used != value.size() || used == 0 || n < 1)
           return option + " must be a positive whole number, got '" + value + "'";
+        if (n > largest)
+          return fmt::format("{} must be at most {}, got '{}'", option, largest, value);
         return std::string();
       },
       "POSITIVE");
+}
+
+// Threads per rank: beyond any node's hardware threads, a typo, not a plan.
+constexpr long long kMaxThreads = 4096;
+// Ranks along one axis of --grid, and in all (MPI's ranks are int).
+constexpr long long kMaxGridAxis = 1 << 20;
+constexpr long long kMaxGridRanks = 1 << 30;
+
+// --grid AxBxC: three whole numbers in [1, kMaxGridAxis] with a product of at most
+// kMaxGridRanks; an empty string when it is one, the reason otherwise.
+std::string grid_problem(const std::string &g) {
+  const std::string form = "--grid must look like 2x2x1 (three positive integers), got '" + g + "'";
+  std::array<long long, 3> n{};
+  std::size_t at = 0;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t end = a < 2 ? g.find('x', at) : g.size();
+    if (end == std::string::npos || end == at) return form;
+    const std::string part = g.substr(at, end - at);
+    if (part.find_first_not_of("0123456789") != std::string::npos) return form;
+    if (part.size() > 12) n[a] = kMaxGridAxis + 1;
+    else n[a] = std::stoll(part);
+    if (n[a] < 1) return form;
+    if (n[a] > kMaxGridAxis)
+      return fmt::format("--grid {}: at most {} ranks along an axis", g, kMaxGridAxis);
+    at = end + 1;
+  }
+  if (n[0] * n[1] * n[2] > kMaxGridRanks)
+    return fmt::format("--grid {}: {} ranks, more than the {} an MPI job can have", g,
+                       n[0] * n[1] * n[2], kMaxGridRanks);
+  return "";
 }
 
 // The options of a process that steps a simulation: the same for run and resume.
@@ -69,20 +102,14 @@ struct ExecutionArgs {
 
 void add_execution_options(CLI::App *cmd, ExecutionArgs &e) {
   cmd->add_option("--threads", e.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
-      ->check(positive("--threads"));
+      ->check(positive("--threads", kMaxThreads));
   cmd->add_flag("--quiet", e.quiet, "no progress output");
   cmd->add_flag("--no-bind", e.no_bind, "do not bind OpenMP threads to cores");
   cmd->add_flag("--verify", e.options.verify,
                 "after every step check that every body is owned once and every shadow equals "
                 "its owner (slow; for debugging)");
   cmd->add_option("--grid", e.grid, "MPI process grid, e.g. 2x2x1 (default: MPI_Dims_create)")
-      ->check([](const std::string &g) {
-        int a, b, c;
-        char t;
-        if (std::sscanf(g.c_str(), "%dx%dx%d%c", &a, &b, &c, &t) != 3 || a < 1 || b < 1 || c < 1)
-          return "--grid must look like 2x2x1 (three positive integers), got '" + g + "'";
-        return std::string();
-      });
+      ->check(grid_problem);
   cmd->add_option("--balance", e.balance,
                   "move the subdomain cuts so the ranks carry equal loads: time (measured "
                   "compute time, default), bodies (advanced bodies, deterministic) or off")
@@ -100,7 +127,7 @@ void add_execution_options(CLI::App *cmd, ExecutionArgs &e) {
       ->group("");  // not in --help
   cmd->add_option("--balance-interval", e.options.parallel.balance.interval,
                   "steps between load comparisons (default 1000)")
-      ->check(positive("--balance-interval"));
+      ->check(positive("--balance-interval", 1000000000000LL));  // 10^12: no step overflow
   cmd->add_option("--balance-threshold", e.options.parallel.balance.threshold,
                   "move the cuts when the busiest rank's load is this far above the mean "
                   "(relative; default 0.05)")
@@ -247,6 +274,11 @@ int simulate_command(ExecutionArgs &e, const std::string &source,
                      const std::function<void(const hardrod::RunOptions &)> &body) {
   hardrod::RunOptions &options = e.options;
   if (e.threads > 0) omp_set_num_threads(e.threads);
+  if (e.threads > omp_get_num_procs())
+    fmt::print(stderr,
+               "hardrod: warning: --threads {} is more than the {} hardware threads this process "
+               "may use: the threads share cores and the run is slower\n",
+               e.threads, omp_get_num_procs());
   options.quiet = e.quiet;
   options.bind = !e.no_bind;
   options.parallel.balance.mode = hardrod::parse_balance_mode(e.balance);

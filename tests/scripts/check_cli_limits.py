@@ -1,0 +1,52 @@
+#!/usr/bin/env python3
+"""hardrod's count options refuse values out of range by name, before anything is written:
+--threads beyond any node's hardware threads, a --grid that would wrap an int or exceed an MPI
+job; more threads than this process may use runs, with a warning.
+
+  check_cli_limits.py HARDROD SOURCE_DIR
+"""
+
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+
+def main():
+    hardrod, source = sys.argv[1], pathlib.Path(sys.argv[2])
+    scene = str(source / "scenes/everyday.toml")
+    work = pathlib.Path(tempfile.mkdtemp(prefix="hardrod-cli-"))
+    short = ["--set", "run.equilibration_steps=0", "--set", "run.steps=20", "--set", "run.sample_interval=10",
+             "--quiet"]
+
+    def run(name, *args):
+        out = work / name
+        p = subprocess.run([hardrod, "run", scene, "--out", str(out), *short, *args],
+                           capture_output=True, text=True)
+        return p, out
+
+    failures = []
+    for name, args, want in [
+        ("threads", ["--threads", "10000"], "--threads must be at most 4096, got '10000'"),
+        ("grid-wrap", ["--grid", "99999999999x1x1"], "at most 1048576 ranks along an axis"),
+        ("grid-many", ["--grid", "1048576x1048576x1"], "more than the 1073741824 an MPI job can have"),
+        ("grid-form", ["--grid", "2x2"], "--grid must look like 2x2x1"),
+    ]:
+        p, out = run(name, *args)
+        text = p.stdout + p.stderr
+        if p.returncode == 0 or want not in text or out.exists():
+            failures.append(f"{args}: exit {p.returncode}, wrote {out.exists()}, said {text.strip()[:300]!r}")
+    usable = len(os.sched_getaffinity(0))
+    p, _ = run("over", "--threads", str(usable + 1))
+    if p.returncode != 0 or f"--threads {usable + 1} is more than the {usable} hardware threads" not in p.stderr:
+        failures.append(f"--threads {usable + 1}: exit {p.returncode}, said {p.stderr.strip()[:300]!r}")
+    for f in failures:
+        print("FAIL:", f)
+    if not failures:
+        print("count options: out-of-range values refused by name; oversubscription warned")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
