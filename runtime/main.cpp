@@ -12,9 +12,11 @@
 #undef exit
 #endif
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <fstream>
@@ -58,6 +60,11 @@ CLI::Validator positive(const std::string &option, long long largest) {
         return std::string();
       },
       "POSITIVE");
+}
+
+// --out names a place: an empty value would silently mean no --out.
+std::string named_path(const std::string &value) {
+  return value.empty() ? std::string("--out must name a path, got ''") : std::string();
 }
 
 // Threads per rank: beyond any node's hardware threads, a typo, not a plan.
@@ -157,7 +164,8 @@ CLI::App *add_run_command(CLI::App &app, RunArgs &r, ExecutionArgs &e) {
   run->add_option("--set", r.overrides, "override a scene key, e.g. --set run.dt=1e-4")
       ->type_name("KEY=VALUE");
   run->add_option("--out", e.options.output_dir,
-                  "output directory (default: the scene's output.dir)");
+                  "output directory (default: the scene's output.dir)")
+      ->check(named_path);
   run->add_flag("--force", e.options.force, "overwrite an existing run in the output directory");
   add_execution_options(run, e);
   return run;
@@ -197,7 +205,8 @@ CLI::App *add_export_command(CLI::App &app, ExportArgs &x) {
   export_cmd->add_option("file", x.file, "H5MD file, e.g. DIR/trajectory.h5")->required();
   export_cmd->add_option("--frame", x.frame,
                          "only this frame (< 0 counts from the end; default: every frame)");
-  export_cmd->add_option("--out", x.out, "output file (default: standard output, XYZ only)");
+  export_cmd->add_option("--out", x.out, "output file (default: standard output, XYZ only)")
+      ->check(named_path);
   export_cmd
       ->add_option("--format", x.format,
                    "xyz or gsd (default: from --out's extension, xyz if none)")
@@ -211,7 +220,8 @@ CLI::App *add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &n
       "analyze", "merge runs: S, P* and the Frank constants with errors, analysis.json, plots");
   analyze->add_option("dirs", o.run_dirs, "run directories")->required();
   analyze->add_option("--out", o.output_dir,
-                      "where analysis.json and the plots go (default: the first run directory)");
+                      "where analysis.json and the plots go (default: the first run directory)")
+      ->check(named_path);
   analyze->add_flag("--subtract-self-term", o.frank.subtract_self_term,
                     "remove the uncorrelated-rod background from <|Q_m3|^2> before fitting");
   analyze
@@ -357,6 +367,15 @@ int run_verb(int argc, char **argv) {
   CLI::App *info = app.add_subcommand("info", "print the build configuration and the machine");
   CLI::App *analyze = add_analyze_command(app, analyze_options, no_plots);
 
+  std::vector<std::string> names;
+  for (const CLI::App *c : app.get_subcommands([](CLI::App *) { return true; }))
+    names.push_back(c->get_name());
+  if (argc > 1 && argv[1][0] != '-' &&
+      std::find(names.begin(), names.end(), argv[1]) == names.end()) {
+    fmt::print(stderr, "hardrod: unknown command: {} (commands: {}; see --help)\n", argv[1],
+               fmt::join(names, ", "));
+    return 1;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError &e) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """hardrod's count options refuse values out of range by name, before anything is written:
 --threads beyond any node's hardware threads, a --grid that would wrap an int or exceed an MPI
-job; more threads than this process may use runs, with a warning.
+job; more threads than this process may use runs, with a warning. An unknown command is named
+as one, and an empty --out is refused rather than taken as no --out.
 
   check_cli_limits.py HARDROD SOURCE_DIR
 """
@@ -14,7 +15,7 @@ import tempfile
 
 
 def main():
-    hardrod, source = sys.argv[1], pathlib.Path(sys.argv[2])
+    hardrod, source = os.path.abspath(sys.argv[1]), pathlib.Path(sys.argv[2]).resolve()
     scene = str(source / "scenes/everyday.toml")
     work = pathlib.Path(tempfile.mkdtemp(prefix="hardrod-cli-"))
     short = ["--set", "run.equilibration_steps=0", "--set", "run.steps=20", "--set", "run.sample_interval=10",
@@ -41,10 +42,18 @@ def main():
     p, _ = run("over", "--threads", str(usable + 1))
     if p.returncode != 0 or f"--threads {usable + 1} is more than the {usable} hardware threads" not in p.stderr:
         failures.append(f"--threads {usable + 1}: exit {p.returncode}, said {p.stderr.strip()[:300]!r}")
+    p = subprocess.run([hardrod, "frobnicate"], capture_output=True, text=True)
+    if p.returncode != 1 or "unknown command: frobnicate" not in p.stderr:
+        failures.append(f"frobnicate: exit {p.returncode}, said {p.stderr.strip()[:300]!r}")
+    for verb in (["run", scene], ["analyze", str(work)], ["export", str(work / "trajectory.h5")]):
+        p = subprocess.run([hardrod, *verb, "--out", ""], capture_output=True, text=True, cwd=work)
+        if p.returncode != 1 or "--out must name a path, got ''" not in p.stderr:
+            failures.append(f"{verb[0]} --out '': exit {p.returncode}, said {p.stderr.strip()[:300]!r}")
     for f in failures:
         print("FAIL:", f)
     if not failures:
-        print("count options: out-of-range values refused by name; oversubscription warned")
+        print("count options refused out of range, oversubscription warned; unknown command and "
+              "empty --out named")
     return 1 if failures else 0
 
 
