@@ -111,8 +111,8 @@ void judge_cut(const Series &ts, nlohmann::json &out, std::vector<std::string> &
         t_cut));
   else if (static_cast<std::size_t>(cut.samples) > first_prod)
     reasons.push_back(fmt::format(
-        "the MSER-5 cut of S(t) at {:g} tau falls after the production's start at {:g} tau",
-        t_cut, t_prod));
+        "the MSER-5 cut of S(t) at {:g} tau falls after the production's start at {:g} tau", t_cut,
+        t_prod));
 }
 
 }  // namespace

@@ -58,14 +58,15 @@ void System::decompose(const std::array<int, 3> &grid, const SlabCounts &counts)
 void System::decompose_all(const Particles &all, const ParallelOptions &parallel) {
   const double *at[3] = {all.x.data(), all.y.data(), all.z.data()};
   const double sides[3] = {scene_.box.length.x, scene_.box.length.y, scene_.box.length.z};
-  decompose(choose_grid(parallel, order_parameter(axis_moments(all, all.size()))),
-            [&](int a, const std::vector<double> &cuts) {
-              std::vector<double> counts(cuts.size() - 1, 0.0);
-              for (std::size_t i = 0; i < all.size(); ++i)
-                counts[static_cast<std::size_t>(Domain::slab(cuts, Box::wrap(at[a][i], sides[a])))] +=
-                    1.0;
-              return counts;
-            });
+  decompose(
+      choose_grid(parallel, order_parameter(axis_moments(all, all.size()))),
+      [&](int a, const std::vector<double> &cuts) {
+        std::vector<double> counts(cuts.size() - 1, 0.0);
+        for (std::size_t i = 0; i < all.size(); ++i)
+          counts[static_cast<std::size_t>(Domain::slab(cuts, Box::wrap(at[a][i], sides[a])))] +=
+              1.0;
+        return counts;
+      });
   keep_owned(all);
 }
 
@@ -208,8 +209,8 @@ void System::redistribute() {
   holding_.clear();
   for (std::size_t i = 0; i < owned_; ++i) {
     Holding h{comm_.rank(), {}};
-    domain_.reached_partners(particles_.position(i), particles_.axis(i),
-                             scene_.shape.half_length(), h.holders);
+    domain_.reached_partners(particles_.position(i), particles_.axis(i), scene_.shape.half_length(),
+                             h.holders);
     for (int r : h.holders) {
       auto &buf = out[domain_.partner_slot(r)];
       pack_body(buf, particles_, i);

@@ -84,8 +84,7 @@ std::string grid_problem(const std::string &g) {
     if (end == std::string::npos || end == at) return form;
     const std::string part = g.substr(at, end - at);
     if (part.find_first_not_of("0123456789") != std::string::npos) return form;
-    if (part.size() > 12) n[a] = kMaxGridAxis + 1;
-    else n[a] = std::stoll(part);
+    n[a] = part.size() > 9 ? kMaxGridAxis + 1 : std::stoll(part);  // digits only: no overflow
     if (n[a] < 1) return form;
     if (n[a] > kMaxGridAxis)
       return fmt::format("--grid {}: at most {} ranks along an axis", g, kMaxGridAxis);
@@ -219,8 +218,9 @@ CLI::App *add_analyze_command(CLI::App &app, hardrod::AnalyzeOptions &o, bool &n
   auto *analyze = app.add_subcommand(
       "analyze", "merge runs: S, P* and the Frank constants with errors, analysis.json, plots");
   analyze->add_option("dirs", o.run_dirs, "run directories")->required();
-  analyze->add_option("--out", o.output_dir,
-                      "where analysis.json and the plots go (default: the first run directory)")
+  analyze
+      ->add_option("--out", o.output_dir,
+                   "where analysis.json and the plots go (default: the first run directory)")
       ->check(named_path);
   analyze->add_flag("--subtract-self-term", o.frank.subtract_self_term,
                     "remove the uncorrelated-rod background from <|Q_m3|^2> before fitting");
@@ -266,8 +266,9 @@ int analyze_command(hardrod::AnalyzeOptions &o, bool no_plots) {
   try {
     const nlohmann::json analysis = hardrod::analyze_runs(o);
     if (o.strict && !hardrod::analysis_trusted(analysis)) {
-      fmt::print(stderr, "hardrod analyze: --strict: the analysis is not trusted (see the "
-                         "warnings and analysis.json's equilibrated and frank_fits)\n");
+      fmt::print(stderr,
+                 "hardrod analyze: --strict: the analysis is not trusted (see the "
+                 "warnings and analysis.json's equilibrated and frank_fits)\n");
       return 3;
     }
   } catch (const std::exception &e) {

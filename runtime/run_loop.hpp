@@ -8,10 +8,10 @@
 
 #include <chrono>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <map>
 #include <string>
 
 #include "kernels/fourier_order_tensor.hpp"
@@ -86,11 +86,11 @@ class RunLoop {
   Clock::time_point start_;
   Clock::time_point last_print_;
   double setup_seconds_ = 0.0;
-  double step_seconds_ = 0.0;  // in System::advance: the steps alone, this segment
+  double step_seconds_ = 0.0;             // in System::advance: the steps alone, this segment
   double production_step_seconds_ = 0.0;  // of those, in production
   long long production_steps_ = 0;
   std::map<std::string, double> traffic_before_production_;  // filled as production begins
-  RegionTimers timers_before_production_;                     // the same
+  RegionTimers timers_before_production_;                    // the same
   long long last_frame_step_ = -1;
   std::optional<Sample> last_sample_;  // for the progress line
   std::string failure_;                // the PhysicsError (or failed output) that ended the run

@@ -110,10 +110,9 @@ void add_timers(nlohmann::json &summary, System &sim, const RunOutcome &outcome)
   for (std::size_t r = 0; r < nregions; ++r) {
     const auto region = static_cast<Region>(r);
     mine[r] = sim.timers().seconds(region);
-    mine[nregions + r] =
-        outcome.production_steps > 0
-            ? (mine[r] - outcome.timers_before_production.seconds(region)) / steps
-            : 0.0;
+    mine[nregions + r] = outcome.production_steps > 0
+                             ? (mine[r] - outcome.timers_before_production.seconds(region)) / steps
+                             : 0.0;
     total[r].add(mine[r]);
     total[nregions + r].add(mine[nregions + r]);
   }
@@ -158,12 +157,11 @@ nlohmann::json traffic_json(Communicator &comm, long long steps, const RunOutcom
                        ? c.seconds
                        : c.seconds - before->second);
     seconds = comm.sum("summary", seconds);
-    traffic[name] = {
-        {"messages_per_step", static_cast<double>(messages) / per_rank_step(steps)},
-        {"bytes_per_step", static_cast<double>(bytes) / per_rank_step(steps)},
-        {"seconds_per_step", seconds[0].value() / per_rank_step(steps)},
-        {"production_seconds_per_step",
-         seconds[1].value() / per_rank_step(outcome.production_steps)}};
+    traffic[name] = {{"messages_per_step", static_cast<double>(messages) / per_rank_step(steps)},
+                     {"bytes_per_step", static_cast<double>(bytes) / per_rank_step(steps)},
+                     {"seconds_per_step", seconds[0].value() / per_rank_step(steps)},
+                     {"production_seconds_per_step",
+                      seconds[1].value() / per_rank_step(outcome.production_steps)}};
   }
   return traffic;
 }
@@ -181,9 +179,8 @@ nlohmann::json production_compute_json(Communicator &comm, const RunOutcome &out
               (before == outcome.traffic_seconds_before_production.end() ? 0.0 : before->second);
   }
   const double steps = static_cast<double>(std::max<long long>(1, outcome.production_steps));
-  const double here = outcome.production_steps > 0
-                          ? (outcome.production_step_seconds_here - inside) / steps
-                          : 0.0;
+  const double here =
+      outcome.production_steps > 0 ? (outcome.production_step_seconds_here - inside) / steps : 0.0;
   ExactSum sum;
   sum.add(here);
   sum = comm.sum("summary", sum);
@@ -200,8 +197,7 @@ nlohmann::json simulated_compute_json(Communicator &comm) {
   clipped.add(t.clipped_seconds);
   charged = comm.sum("summary", charged);
   clipped = comm.sum("summary", clipped);
-  const std::vector<double> extremes =
-      comm.max("summary", {t.charged_seconds, -t.charged_seconds});
+  const std::vector<double> extremes = comm.max("summary", {t.charged_seconds, -t.charged_seconds});
   return {{"stretches", comm.sum("summary", t.stretches)},
           {"charged_seconds_rank_max", extremes[0]},
           {"charged_seconds_rank_min", -extremes[1]},

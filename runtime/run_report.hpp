@@ -5,9 +5,9 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -58,7 +58,7 @@ struct RunOutcome {
   double wall_seconds = 0.0;   // this segment, slowest rank
   double setup_seconds = 0.0;  // this segment, slowest rank
   double step_seconds = 0.0;   // in the steps alone (no samples, output), slowest rank
-  double production_seconds_per_step = 0.0;  // the same, per production step (0: none)
+  double production_seconds_per_step = 0.0;   // the same, per production step (0: none)
   long long production_steps = 0;             // this segment's
   double production_step_seconds_here = 0.0;  // in them, this rank
   // Each communication's seconds and the region timers on this rank when this segment's

@@ -10,9 +10,10 @@ namespace {
 volatile std::sig_atomic_t g_stop_signal = 0;
 volatile std::sig_atomic_t g_interrupts = 0;
 
-// The first stop signal is kept. A second Ctrl-C kills at once (a person at the terminal means
-// it); a repeated SIGTERM or SIGUSR1 (schedulers and wrappers often send their warning twice)
-// waits for the checkpoint like the first. signal() and raise() are async-signal-safe.
+// The first of these signals names the request. A second Ctrl-C kills at once (a person at the
+// terminal means it); a repeated SIGTERM or SIGUSR1 (schedulers and wrappers often send their
+// warning twice) waits for the checkpoint like the first. signal() and raise() are
+// async-signal-safe.
 extern "C" void on_stop_signal(int signal) {
   if (signal == SIGINT && ++g_interrupts >= 2) {
     std::signal(SIGINT, SIG_DFL);

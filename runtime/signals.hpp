@@ -13,7 +13,7 @@ namespace hardrod {
 // systems send one, or a chosen signal, some time before the wall-clock limit, and some send it
 // twice) still waits for the checkpoint.
 void install_stop_signals();
-int stop_signal();  // the first stop signal received, 0 if none
+int stop_signal();  // the first of SIGTERM, SIGUSR1, SIGINT received, 0 if none
 // "SIGTERM", "SIGUSR1", "SIGINT", or "a signal to another rank" when none arrived here.
 std::string stop_signal_name();
 

@@ -101,7 +101,6 @@ TEST(FrankSynthetic, RecoversPrescribedConstantsInBothBoxesWithHonestErrors) {
   report("plane, subtracted, samples as independent", independent.planar);
   EXPECT_LT(independent.planar.K2.error, f.K2.fit_error / 1.5);
   EXPECT_EQ(independent.replicas, 0);
-
 }
 
 // Negative control: the same configurations told S = 1 in the normalisation instead of the

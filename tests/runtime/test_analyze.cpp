@@ -24,9 +24,8 @@ std::string short_frank_run(unsigned long long seed, bool frank, int kmax = 3) {
   scene.frank = frank;
   scene.fourier_kmax = kmax;
   scene.fourier_interval = 50;
-  const fs::path dir =
-      fs::temp_directory_path() /
-      ("hardrod-analyze-" + std::to_string(seed) + (frank ? "f" : "n") + std::to_string(kmax));
+  const fs::path dir = fs::temp_directory_path() / ("hardrod-analyze-" + std::to_string(seed) +
+                                                    (frank ? "f" : "n") + std::to_string(kmax));
   fs::remove_all(dir);
   RunOptions options;
   options.output_dir = dir.string();
@@ -147,7 +146,8 @@ TEST(Analyze, RefusesCopiesAndMixedProtocols) {
   EXPECT_NE(refusal({a, same_state}).find("the same state_checksum"), std::string::npos);
   const std::string b = fake_run("proto-b", with({{"seed", 2}, {"state_checksum", "0b"}}));
   EXPECT_EQ(refusal({a, b}), "");
-  const std::string dt = fake_run("proto-dt", with({{"seed", 3}, {"state_checksum", "0c"}, {"dt", 2e-4}}));
+  const std::string dt =
+      fake_run("proto-dt", with({{"seed", 3}, {"state_checksum", "0c"}, {"dt", 2e-4}}));
   const std::string mixed = refusal({a, dt});
   EXPECT_NE(mixed.find("run.dt 0.0001 against 0.0002"), std::string::npos) << mixed;
   EXPECT_NE(mixed.find("--allow-mixed"), std::string::npos) << mixed;

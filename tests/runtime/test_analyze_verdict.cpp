@@ -2,8 +2,8 @@
 // equilibration judged from timeseries.csv, and each fit's trust from its chi^2.
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <random>
@@ -76,8 +76,7 @@ TEST(AnalyzeVerdict, ARelaxationIntoProductionIsNotEquilibrated) {
   // Settled in its first third of production, so the thirds may agree; the cut says it.
   const auto run = judge_run(write_run("late", series(100, 2000, 400, 0.0, 4), 100), {});
   EXPECT_FALSE(run["equilibrated"].get<bool>());
-  EXPECT_NE(run["reasons"].dump().find("after the production"), std::string::npos)
-      << run.dump(2);
+  EXPECT_NE(run["reasons"].dump().find("after the production"), std::string::npos) << run.dump(2);
 }
 
 TEST(AnalyzeVerdict, WithoutTimeseriesTheSummarySays) {
@@ -95,8 +94,7 @@ TEST(AnalyzeVerdict, ABrokenTimeseriesNamesFileAndLine) {
     judge_run(dir, {});
     FAIL() << "a NaN sample was accepted";
   } catch (const std::runtime_error &e) {
-    EXPECT_NE(std::string(e.what()).find("timeseries.csv: line 52"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("timeseries.csv: line 52"), std::string::npos) << e.what();
   }
 }
 

@@ -182,7 +182,8 @@ TEST(SceneKeys, TemperatureHasLimits) {
 // The Frank fit needs two modes per axis at least: kmax = 1 is a scene error naming the key, not
 // an internal error when the first sample is accumulated.
 TEST(SceneKeys, FourierKmaxIsAtLeastTwo) {
-  const auto problems = problems_of(kScene, {"observables.frank=true", "observables.fourier_kmax=1"});
+  const auto problems =
+      problems_of(kScene, {"observables.frank=true", "observables.fourier_kmax=1"});
   ASSERT_EQ(problems.size(), 1u) << lines(problems);
   EXPECT_EQ(problems[0].rfind("observables.fourier_kmax = 1", 0), 0u) << lines(problems);
   EXPECT_TRUE(contains(problems, ">= 2")) << lines(problems);
