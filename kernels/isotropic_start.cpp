@@ -477,6 +477,7 @@ Particles make_isotropic(long long n, const Shape &shape, const Box &target, std
   const double start_scale = std::max(1.0, std::cbrt(fraction / options.start_packing_fraction));
   Compressor run(static_cast<std::size_t>(n), shape, target, start_scale, seed, options);
   CompressionReport out;
+  double next_progress = options.progress_seconds;
   while (!run.finished()) {
     const bool out_of_sweeps = out.sweeps >= options.max_sweeps;
     if (out_of_sweeps || (options.max_seconds > 0.0 && elapsed() > options.max_seconds)) {
@@ -495,6 +496,10 @@ Particles make_isotropic(long long n, const Shape &shape, const Box &target, std
     if (options.stop && options.stop())
       throw CompressionStopped("make_isotropic: stopped on request after " +
                                std::to_string(out.sweeps) + " sweeps");
+    if (options.progress && elapsed() >= next_progress) {
+      options.progress(out.sweeps, run.scale());
+      next_progress += options.progress_seconds;
+    }
     run.sweep();
     ++out.sweeps;
     if (run.may_shrink() && run.try_shrink()) ++out.compressions;

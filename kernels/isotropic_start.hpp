@@ -55,6 +55,10 @@ struct CompressionOptions {
   // Asked between sweeps, if set: true ends the compression with CompressionStopped (a stop
   // signal during a long set-up).
   std::function<bool()> stop;
+  // Called every progress_seconds of compression, if set, with the sweeps so far and the box
+  // side over the target's: a long set-up shows that it moves.
+  std::function<void(long long sweeps, double box_scale)> progress;
+  double progress_seconds = 5.0;
 };
 
 // The compression ended because CompressionOptions::stop asked for it.

@@ -5,6 +5,8 @@
 #include <omp.h>
 
 #include <cstdlib>
+#include <map>
+#include <string>
 #include <vector>
 
 namespace hardrod {
@@ -101,8 +103,22 @@ std::string thread_placement() {
     hwloc_bitmap_free(where);
   }
   std::string out;
-  for (int t = 0; t < threads; ++t)
-    out += fmt::format("{}thread {} -> PU {} (core {})", t ? ", " : "", t, pu[t], core[t]);
+  if (threads <= kListedThreads) {
+    for (int t = 0; t < threads; ++t)
+      out += fmt::format("{}thread {} -> PU {} (core {})", t ? ", " : "", t, pu[t], core[t]);
+    return out;
+  }
+  // Many threads: how many ran on each PU, so the line grows with the machine, not the count.
+  std::map<int, std::pair<int, int>> on;  // PU -> (core, threads)
+  for (int t = 0; t < threads; ++t) {
+    auto &entry = on[pu[t]];
+    entry.first = core[t];
+    ++entry.second;
+  }
+  out = fmt::format("{} threads:", threads);
+  for (const auto &[where, entry] : on)
+    out += fmt::format(" {} on PU {} (core {}),", entry.second, where, entry.first);
+  out.pop_back();
   return out;
 }
 

@@ -22,7 +22,8 @@ TopologySummary describe_topology();
 std::string bind_threads(bool enabled);
 
 // "thread 0 -> PU 0 (core 0), thread 1 -> PU 1 (core 1)": where each OpenMP thread of this
-// process last ran.
+// process last ran; past kListedThreads threads, how many ran on each PU.
+inline constexpr int kListedThreads = 16;
 std::string thread_placement();
 
 }  // namespace hardrod

@@ -1,12 +1,14 @@
-// `hardrod export`: H5MD frames with their velocities, the format choice, extended XYZ, and
-// the write-then-rename of the output (runtime/export.hpp).
+// `hardrod export`: H5MD frames with their velocities, the format choice, extended XYZ, the
+// checks on --out and the write-then-rename of the output (runtime/export.hpp).
 #include "runtime/export.hpp"
 
 #include <fmt/format.h>
 #include <hdf5.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -16,8 +18,12 @@
 
 #include "runtime/checkpoint.hpp"
 #include "runtime/hoomd_gsd.hpp"
+#include "runtime/run_files.hpp"
+#include "runtime/run_lock.hpp"
 
 namespace hardrod {
+
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -77,18 +83,81 @@ double read_parameter(hid_t file, const char *name, const std::string &path) {
   return value;
 }
 
-// Writes `out` through `write(stream)` into `out`.tmp, then renames it into place.
+// Writes `out` through `write(tmp)` into `out`.tmp, then renames it into place. A `out`.tmp
+// left by an export that was killed is unlinked first, so that a hard link to it elsewhere
+// keeps its content (check_export_target refused anything there but a regular file).
 template <typename Write>
 void write_then_rename(const std::string &out, Write write) {
   const std::string tmp = out + ".tmp";
   try {
+    std::error_code stale;
+    fs::remove(tmp, stale);
     write(tmp);
-    std::filesystem::rename(tmp, out);
+    fs::rename(tmp, out);
   } catch (...) {
     std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
+    fs::remove(tmp, ignored);
     throw;
   }
+}
+
+// What `write(stream)` produces, on standard output (`out` empty) or in the file `out`.
+template <typename Write>
+void write_text(const std::string &out, Write write) {
+  if (out.empty()) {
+    write(std::cout);
+    std::cout.flush();
+    return;
+  }
+  write_then_rename(out, [&](const std::string &tmp) {
+    errno = 0;
+    std::ofstream stream(tmp);
+    if (!stream) {
+      // The reason: usually a folder that does not exist, or one that may not be written.
+      const fs::path folder =
+          fs::path(tmp).parent_path().empty() ? "." : fs::path(tmp).parent_path();
+      std::error_code ec;
+      const std::string why = !fs::is_directory(folder, ec)
+                                  ? fmt::format("no folder {}", folder.string())
+                                  : (errno ? std::strerror(errno) : "not writable");
+      throw std::runtime_error(fmt::format("{}: cannot create ({})", tmp, why));
+    }
+    write(stream);
+    stream.close();
+    if (!stream) throw std::runtime_error(fmt::format("{}: cannot write (disk full?)", tmp));
+  });
+}
+
+bool same_file(const fs::path &a, const fs::path &b) {
+  std::error_code ec;
+  return fs::equivalent(a, b, ec) && !ec;  // device and inode, after resolving links
+}
+
+bool is_run_file(const std::string &name) { return is_run_file_name(name) || name == kLockFile; }
+
+// Refuses `path` (`out` or its temporary file) if something is there that is not a regular
+// file: renaming over it would replace a device, a FIFO or a link with a file.
+void refuse_unless_regular(const std::string &out, const fs::path &path, bool temporary) {
+  std::error_code ec;
+  const fs::file_type type = fs::symlink_status(path, ec).type();
+  if (ec || type == fs::file_type::not_found || type == fs::file_type::regular) return;
+  const std::string what = temporary ? "its temporary file " + path.string() : "it";
+  std::string kind = "not a regular file";
+  if (type == fs::file_type::directory) kind = "a directory";
+  if (type == fs::file_type::character || type == fs::file_type::block) kind = "a device";
+  if (type == fs::file_type::fifo) kind = "a FIFO (named pipe)";
+  if (type == fs::file_type::socket) kind = "a socket";
+  if (type == fs::file_type::symlink) {
+    const fs::path target = fs::read_symlink(path, ec);
+    throw std::invalid_argument(fmt::format(
+        "--out {}: {} is a symbolic link (to {}); export does not write through links: give "
+        "the file's own path (nothing was changed)",
+        out, what, ec ? std::string("?") : target.string()));
+  }
+  throw std::invalid_argument(fmt::format(
+      "--out {}: {} is {}, not a regular file; export writes only regular files (nothing was "
+      "changed)",
+      out, what, kind));
 }
 
 }  // namespace
@@ -96,10 +165,42 @@ void write_then_rename(const std::string &out, Write write) {
 ExportFormat choose_export_format(const std::string &format, const std::string &out) {
   if (format == "xyz") return ExportFormat::kXyz;
   if (format == "gsd") return ExportFormat::kGsd;
+  if (format == "pov") return ExportFormat::kPov;
   if (!format.empty())
-    throw std::invalid_argument(
-        fmt::format("--format {}: must be xyz (extended XYZ) or gsd (HOOMD's GSD)", format));
-  return std::filesystem::path(out).extension() == ".gsd" ? ExportFormat::kGsd : ExportFormat::kXyz;
+    throw std::invalid_argument(fmt::format(
+        "--format {}: must be xyz (extended XYZ), gsd (HOOMD's GSD) or pov (POV-Ray)", format));
+  const std::string extension = fs::path(out).extension().string();
+  if (extension == ".gsd") return ExportFormat::kGsd;
+  if (extension == ".pov") return ExportFormat::kPov;
+  if (extension == ".h5" || extension == ".hdf5" || extension == ".h5md")
+    throw std::invalid_argument(fmt::format(
+        "--out {}: a {} name is an HDF5 file's, and export writes none; name the file .xyz, "
+        ".gsd or .pov, or pass --format xyz to write extended XYZ under this name",
+        out, extension));
+  return ExportFormat::kXyz;
+}
+
+void check_export_target(const std::string &input, const std::string &out) {
+  const fs::path target = fs::absolute(out);
+  refuse_unless_regular(out, target, false);
+  refuse_unless_regular(out, target.string() + ".tmp", true);
+  if (same_file(target, input))
+    throw std::invalid_argument(fmt::format(
+        "--out {}: is the input file itself; export to another file (nothing was changed)", out));
+  const fs::path run_dir = fs::absolute(input).parent_path();
+  const std::string name = target.filename().string();
+  if (is_run_file(name) && same_file(target.parent_path(), run_dir))
+    throw std::invalid_argument(fmt::format(
+        "--out {}: {} is one of the run's own files in {}; export to another name (nothing was "
+        "changed)",
+        out, name, run_dir.string()));
+  std::error_code ec;
+  for (const fs::directory_entry &e : fs::directory_iterator(run_dir, ec))
+    if (is_run_file(e.path().filename().string()) && same_file(e.path(), target))
+      throw std::invalid_argument(fmt::format(
+          "--out {}: is the same file as the run's {}; export to another file (nothing was "
+          "changed)",
+          out, e.path().string()));
 }
 
 Shape read_h5md_shape(const std::string &path) {
@@ -161,10 +262,20 @@ std::string extended_xyz(const SnapshotFrame &f, const Shape &shape) {
 }
 
 void export_trajectory(const std::string &h5md, std::optional<long long> frame,
-                       const std::string &out, ExportFormat format) {
+                       const std::string &out, ExportFormat format,
+                       const std::optional<PovSlab> &slab) {
   if (format == ExportFormat::kGsd && out.empty())
     throw std::invalid_argument("--format gsd needs --out FILE.gsd (the file is binary)");
+  if (slab && format != ExportFormat::kPov)
+    throw std::invalid_argument("--slab: only for a POV-Ray scene (--format pov)");
+  if (!out.empty()) check_export_target(h5md, out);
   const Shape shape = read_h5md_shape(h5md);
+  if (format == ExportFormat::kPov) {
+    const SnapshotFrame f = read_checked_frame(h5md, frame.value_or(-1));
+    const std::string source = fmt::format("{} frame {}", h5md, f.frame);
+    write_text(out, [&](std::ostream &stream) { stream << pov_scene(f, shape, slab, source); });
+    return;
+  }
   const long long frames = read_h5md_frame(h5md, frame.value_or(-1)).frames;
   const long long first = frame ? (*frame < 0 ? frames + *frame : *frame) : 0;
   const long long last = frame ? first + 1 : frames;
@@ -177,21 +288,9 @@ void export_trajectory(const std::string &h5md, std::optional<long long> frame,
     });
     return;
   }
-  const auto write = [&](std::ostream &stream) {
+  write_text(out, [&](std::ostream &stream) {
     for (long long k = first; k < last; ++k)
       stream << extended_xyz(read_checked_frame(h5md, k), shape);
-  };
-  if (out.empty()) {
-    write(std::cout);
-    std::cout.flush();
-    return;
-  }
-  write_then_rename(out, [&](const std::string &tmp) {
-    std::ofstream stream(tmp);
-    if (!stream) throw std::runtime_error(fmt::format("{}: cannot create", tmp));
-    write(stream);
-    stream.close();
-    if (!stream) throw std::runtime_error(fmt::format("{}: cannot write (disk full?)", tmp));
   });
 }
 

@@ -1,8 +1,8 @@
 // The hardrod command line: `hardrod run SCENE.toml [--set key=value ...] [--out DIR]`,
 // `hardrod resume DIR [--set run.steps=N]`, `hardrod analyze DIR...`,
-// `hardrod export TRAJECTORY.h5 [--frame K]`, `hardrod info`. One function declares each
-// verb's options, one carries it out; the work itself is in runtime/ (run.hpp, analyze.hpp,
-// snapshot.hpp, info.hpp).
+// `hardrod export TRAJECTORY.h5 [--frame K] [--format xyz|gsd|pov]`, `hardrod info`. One
+// function declares each verb's options, one carries it out; the work itself is in runtime/
+// (run.hpp, analyze.hpp, export.hpp, info.hpp).
 // Exit status: 0 success, 1 usage, 2 bad scene, output directory or checkpoint, 3 the
 // physics broke (overlap beyond tolerance, NaN): the message says which step and dt,
 // 4 stopped by SIGTERM/SIGUSR1/SIGINT after writing a checkpoint (resume continues it).
@@ -190,26 +190,47 @@ CLI::App *add_resume_command(CLI::App &app, ResumeArgs &r, ExecutionArgs &e) {
   return resume;
 }
 
-// `hardrod export TRAJECTORY.h5 [--frame K] [--format xyz|gsd] [--out FILE]`.
+// `hardrod export TRAJECTORY.h5 [--frame K] [--format xyz|gsd|pov] [--out FILE]
+// [--slab AXIS:FROM:TO]`.
 struct ExportArgs {
-  std::string file, out, format;
-  std::optional<long long> frame;  // none: every frame
+  std::string file, out, format, slab;
+  std::optional<long long> frame;  // none: every frame (POV: the last)
 };
 
 CLI::App *add_export_command(CLI::App &app, ExportArgs &x) {
   auto *export_cmd = app.add_subcommand(
       "export",
       "write an H5MD trajectory's frames as extended XYZ (ASE, OVITO) or GSD (HOOMD-blue, OVITO, "
-      "freud, MDAnalysis)");
+      "freud, MDAnalysis), or one frame as a POV-Ray scene (scripts/render makes the picture)");
   export_cmd->add_option("file", x.file, "H5MD file, e.g. DIR/trajectory.h5")->required();
-  export_cmd->add_option("--frame", x.frame,
-                         "only this frame (< 0 counts from the end; default: every frame)");
-  export_cmd->add_option("--out", x.out, "output file (default: standard output, XYZ only)")
+  export_cmd->add_option(
+      "--frame", x.frame,
+      "only this frame (< 0 counts from the end; default: every frame, for pov the last)");
+  export_cmd
+      ->add_option("--out", x.out,
+                   "output file, written to FILE.tmp and renamed (default: standard output, "
+                   "xyz and pov only); refused if something other than a regular file is there "
+                   "(a symbolic link too: give its target), if it is the input or one of the "
+                   "run's own files beside it")
       ->check(named_path);
   export_cmd
       ->add_option("--format", x.format,
-                   "xyz or gsd (default: from --out's extension, xyz if none)")
-      ->check(CLI::IsMember({"xyz", "gsd"}));
+                   "xyz, gsd or pov (default: from --out's extension, .gsd, .pov, xyz "
+                   "otherwise; an .h5 name only with --format)")
+      ->check(CLI::IsMember({"xyz", "gsd", "pov"}));
+  export_cmd
+      ->add_option("--slab", x.slab,
+                   "pov: only the rods whose centres, folded into the box, lie in FROM <= c < "
+                   "TO along AXIS (in D), e.g. x:0:10")
+      ->type_name("AXIS:FROM:TO")
+      ->check([](const std::string &s) {
+        try {
+          hardrod::parse_slab(s);
+          return std::string();
+        } catch (const std::invalid_argument &e) {
+          return std::string(e.what());
+        }
+      });
   return export_cmd;
 }
 
@@ -252,8 +273,14 @@ int info_command() {
 
 int export_command(const ExportArgs &x) {
   try {
-    hardrod::export_trajectory(x.file, x.frame, x.out,
-                               hardrod::choose_export_format(x.format, x.out));
+    const hardrod::ExportFormat format = hardrod::choose_export_format(x.format, x.out);
+    if (!x.slab.empty() && format != hardrod::ExportFormat::kPov) {
+      fmt::print(stderr, "hardrod export: --slab: only for a POV-Ray scene (--format pov)\n");
+      return 1;
+    }
+    std::optional<hardrod::PovSlab> slab;
+    if (!x.slab.empty()) slab = hardrod::parse_slab(x.slab);
+    hardrod::export_trajectory(x.file, x.frame, x.out, format, slab);
   } catch (const std::exception &e) {
     fmt::print(stderr, "hardrod export: {}\n", e.what());
     return 2;
@@ -291,6 +318,7 @@ int simulate_command(ExecutionArgs &e, const std::string &source,
                "may use: the threads share cores and the run is slower\n",
                e.threads, omp_get_num_procs());
   options.quiet = e.quiet;
+  options.parallel.report_setup = !e.quiet;
   options.bind = !e.no_bind;
   options.parallel.balance.mode = hardrod::parse_balance_mode(e.balance);
   if (!e.grid.empty())
@@ -395,6 +423,7 @@ int run_verb(int argc, char **argv) {
 }  // namespace
 
 int main(int argc, char **argv) {
+  hardrod::keep_hdf5_out_of_exit();
   const int status = run_verb(argc, argv);
   hardrod::finalize_communication();
   return status;

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "kernels/order_tensor.hpp"
 #include "runtime/comm.hpp"
@@ -37,6 +38,16 @@ struct Sample {
 // Creates the directory. Throws SceneError.
 void prepare_output_dir(const std::filesystem::path &dir, bool force);
 
+// Whether `name` (a file name, no folder) is one of the files that hardrod, its analysis and
+// its scripts write into a run directory: the outputs, the checkpoints, their temporary files
+// and the trajectories kept aside by a resume. The lock file is not one.
+bool is_run_file_name(const std::string &name);
+
+// The earlier run's files in `dir` (is_run_file_name) removed, so that a forced run leaves
+// only its own; anything else there stays. Returns their names, sorted. Throws SceneError
+// naming the first file that could not be removed.
+std::vector<std::string> remove_run_files(const std::filesystem::path &dir);
+
 // Writes `text` to `path` through a temporary file and a rename. Throws SceneError.
 void write_atomically(const std::filesystem::path &path, const std::string &text);
 
@@ -49,11 +60,15 @@ class TimeSeries {
   // A new file with the header (keep_bytes < 0), or (resume) the existing one cut back to
   // `keep_bytes`. Throws SceneError.
   TimeSeries(const std::filesystem::path &path, long long keep_bytes);
+  // Throws std::runtime_error naming the file and the reason where the row did not reach it.
   void write(const Sample &s, double dt, double running);
-  long long bytes() { return static_cast<long long>(out_.tellp()); }
+  // The bytes of whole rows on disk (what a checkpoint records; a failed row is not counted).
+  long long bytes() const { return bytes_; }
 
  private:
+  std::filesystem::path path_;
   std::ofstream out_;
+  long long bytes_ = 0;
 };
 
 // The trajectory of a resumed run: the existing file cut back to the checkpoint's frames. A

@@ -59,6 +59,7 @@ RunLoop::RunLoop(const Scene &scene, const RunOptions &options, const Checkpoint
       frank_ = std::make_unique<FrankAccumulator>(scene.box, scene.n, scene.fourier_kmax);
   }
   first_step_ = sim_->current_step();
+  if (from) last_checkpoint_step_ = from->step;
   files_ = open_run_files(comm, dir_, scene, options.force, from ? &st_ : nullptr,
                           from ? from->step : 0);
   placement_ = place_threads(comm, options.bind);
@@ -219,7 +220,13 @@ void RunLoop::take_sample(bool production) {
   }
   st_.running_sum += s.pressure_star;
   ++st_.running_count;
-  if (files_.series) files_.series->write(s, scene_.dt, st_.running_sum / st_.running_count);
+  std::string problem;  // rank 0's (a full disk), agreed on so that every rank stops
+  try {
+    if (files_.series) files_.series->write(s, scene_.dt, st_.running_sum / st_.running_count);
+  } catch (const std::exception &e) {
+    problem = e.what();
+  }
+  check_series_written(problem);
   last_sample_ = s;
 }
 
@@ -230,19 +237,38 @@ void RunLoop::sample_fourier() {
   if (frank_) frank_->add_sample(qk, q.director, q.S);
 }
 
-// Collective: bodies gathered in id order, one H5MD frame written by rank 0.
+// Collective: a time series row that rank 0 could not write stops every rank.
+void RunLoop::check_series_written(const std::string &problem) {
+  if (sim_->comm().sum("output", problem.empty() ? 0LL : 1LL) > 0)
+    throw RunOutputError(fmt::format("sample at step {} not written: {}", sim_->current_step(),
+                                     problem.empty() ? "failed on rank 0" : problem));
+}
+
+// Collective: bodies gathered in id order, one H5MD frame written by rank 0. A frame that
+// would not fit in the free space is not begun, so the file keeps its whole frames readable
+// (HDF5 cannot undo a frame half written to a full disk).
 void RunLoop::write_frame() {
   ScopedRegion r(sim_->timers(), Region::kOutput);
   const Particles bodies = sim_->gather_bodies();
   std::string problem;  // rank 0's (a full disk), agreed on so that every rank stops
   errno = 0;
   try {
-    if (files_.trajectory) files_.trajectory->append(bodies, sim_->current_step(), sim_->time());
+    if (files_.trajectory) {
+      std::error_code ec;
+      const std::uintmax_t free = std::filesystem::space(dir_, ec).available;
+      const std::uintmax_t needs = files_.trajectory->frame_bytes() + (1u << 16);
+      if (!ec && free < needs)
+        problem = fmt::format("{}: {} bytes free, a frame needs about {} (disk full)",
+                              (dir_ / "trajectory.h5").string(), free, needs);
+      else
+        files_.trajectory->append(bodies, sim_->current_step(), sim_->time());
+    }
   } catch (const std::exception &e) {
     const int why = errno;  // HDF5 says only that a write failed; the system says why
     problem = why ? fmt::format("{} ({})", e.what(), std::strerror(why)) : e.what();
   }
-  if (sim_->comm().sum("output", problem.empty() ? 0LL : 1LL) > 0)
+  frame_failed_ = sim_->comm().sum("output", problem.empty() ? 0LL : 1LL) > 0;
+  if (frame_failed_)
     throw RunOutputError(fmt::format("trajectory frame at step {} not written: {}",
                                      sim_->current_step(),
                                      problem.empty() ? "failed on rank 0" : problem));
@@ -273,6 +299,30 @@ void RunLoop::write_checkpoint() {
   c.run_state = saved_state_json({saved, sim.pending_interval(), sim.thermostat_record()});
   if (frank_) c.root_state = to_json(*frank_).dump();
   hardrod::write_checkpoint(comm, dir_, sim.particles(), sim.owned_count(), c);
+  last_checkpoint_step_ = c.step;
+}
+
+// Collective, after a failed write: what the user can do, made true first. Where the
+// trajectory failed (the state and the accumulators are whole), a checkpoint of the current
+// step is tried: it replaces the last one atomically, so its failure loses nothing.
+std::string RunLoop::output_advice() {
+  if (frame_failed_ && last_checkpoint_step_ != sim_->current_step()) {
+    try {
+      write_checkpoint();
+    } catch (const CheckpointError &e) {
+      failure_ +=
+          fmt::format("; no checkpoint at step {} either ({})", sim_->current_step(), e.what());
+    }
+  }
+  if (last_checkpoint_step_ < 0)
+    return fmt::format(
+        "no checkpoint was written: once there is room, run again with --out {} "
+        "--force",
+        dir_.string());
+  return fmt::format(
+      "the checkpoint of step {} is on disk: once there is room, continue with: "
+      "hardrod resume {}",
+      last_checkpoint_step_, dir_.string());
 }
 
 void RunLoop::report_progress(long long step) {
@@ -342,11 +392,10 @@ nlohmann::json RunLoop::finish() {
     failure_ += fmt::format("; the summary was not written either ({})", e.what());
   }
   if (!quiet_) print_run_report(sim, st_, summary, counters_, dir_);
-  if (output_failed_)
-    throw RunOutputError(
-        fmt::format("{}; the previous checkpoint is kept: once there is room, "
-                    "continue with: hardrod resume {}",
-                    failure_, dir_.string()));
+  if (output_failed_) {
+    const std::string advice = output_advice();
+    throw RunOutputError(fmt::format("{}; {}", failure_, advice));
+  }
   if (!failure_.empty()) throw PhysicsError(failure_);
   if (!stopped_by_.empty())
     throw RunInterrupted(fmt::format(

@@ -50,6 +50,8 @@ class RunLoop {
   void sample_fourier();
   void write_frame();
   void write_checkpoint();
+  void check_series_written(const std::string &problem);
+  std::string output_advice();
   void report_progress(long long step);
   void print_progress(bool final_line);
   nlohmann::json finish();
@@ -94,7 +96,10 @@ class RunLoop {
   long long last_frame_step_ = -1;
   std::optional<Sample> last_sample_;  // for the progress line
   std::string failure_;                // the PhysicsError (or failed output) that ended the run
-  bool output_failed_ = false;         // a checkpoint could not be written
+  bool output_failed_ = false;         // a file could not be written (all ranks know)
+  bool frame_failed_ =
+      false;  // that file was the trajectory: the state is whole, a checkpoint may follow
+  long long last_checkpoint_step_ = -1;  // the newest complete checkpoint on disk (-1: none)
   std::string stopped_by_;             // the signal that interrupted the run
 };
 

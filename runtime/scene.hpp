@@ -44,6 +44,7 @@ struct Scene {
   std::array<long long, 3> lattice{0, 0, 0};  // bodies per axis; "auto" resolved here
   std::string init_file;                      // configuration = "file": an H5MD file
   long long init_frame = -1;                  // its frame; < 0 counts from the end
+  long long isotropic_sweeps = 200000;        // configuration = "isotropic": MC sweeps allowed
   int axis = 0;                               // 0 = x, 1 = y, 2 = z
   unsigned long long seed = 1;
   double temperature = 1.0;  // kT

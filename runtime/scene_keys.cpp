@@ -2,6 +2,9 @@
 // the canonical scene, suggestions for unknown keys (see scene_keys.hpp).
 #include "runtime/scene_keys.hpp"
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -62,6 +65,7 @@ std::string_view total_steps_fit(const Scene &s, const Value &v) {
 
 bool lattice_start(const Scene &s) { return s.configuration == Configuration::kLattice; }
 bool file_start(const Scene &s) { return s.configuration == Configuration::kFile; }
+bool isotropic_start(const Scene &s) { return s.configuration == Configuration::kIsotropic; }
 
 // The exact method's bounds grow by a whole step's flight at dt ~1e-3 before every step: a
 // wider skin rebuilds less often, a too wide one lists more pairs. The cheapest, measured in
@@ -129,6 +133,9 @@ constexpr KeySpec kKeys[] = {
      .help = "configuration = \"file\": an H5MD or .gsd (HOOMD) file; n and box must match"},
     {.section = "init", .name = "frame", .type = kInteger, .member = &Scene::init_frame,
      .when = file_start, .help = "configuration = \"file\": its frame; < 0 counts from the end"},
+    {.section = "init", .name = "isotropic_sweeps", .type = kInteger,
+     .member = &Scene::isotropic_sweeps, .limit = integers(1, 1000000000), .when = isotropic_start,
+     .help = "configuration = \"isotropic\": Monte Carlo sweeps the compression may take"},
     {.section = "init", .name = "axis", .type = kChoice, .member = &Scene::axis,
      .limit = one_of(kAxisNames, "must be \"x\", \"y\" or \"z\""),
      .help = "the common body axis on the lattice"},
@@ -326,6 +333,15 @@ bool is_string_key(const KeySpec &spec) { return spec.type == kString || spec.ty
 
 std::string unknown_key(std::string_view full) {
   const auto dot = full.find('.');
+  if (dot == std::string_view::npos)
+    for (const std::string_view section : kSections)
+      if (section == full) {  // a section alone, as in --set run=1: its keys, not a look-alike
+        std::vector<std::string> keys;
+        for (const KeySpec &spec : kKeys)
+          if (spec.section == section) keys.push_back(full_key(section, spec.name));
+        return fmt::format("'{}' is a section, not a key: name one of its keys ({})", full,
+                           fmt::join(keys, ", "));
+      }
   const std::string_view name = dot == std::string_view::npos ? full : full.substr(dot + 1);
   std::string best;
   std::size_t best_distance = std::numeric_limits<std::size_t>::max();

@@ -439,6 +439,8 @@ std::optional<std::uint64_t> read_frame_checksum(const std::string &path, long l
   return out;
 }
 
+void keep_hdf5_out_of_exit() { H5dont_atexit(); }
+
 TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
     : n_(scene.n),
       edges_{scene.box.length.x, scene.box.length.y, scene.box.length.z},
@@ -446,6 +448,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
       wrapped_(true),
       checksums_(true),
       path_(path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // our messages, not HDF5's error stack
   const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (file < 0) throw std::runtime_error(fmt::format("{}: cannot create the H5MD file", path));
   file_ = file;
@@ -470,7 +473,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene)
   H5Gclose(particles);
   make_checksums(file);
   write_parameters(file, scene, provenance);
-  H5Fflush(file, H5F_SCOPE_GLOBAL);
+  close_file("creating the file");
 }
 
 TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene,
@@ -489,6 +492,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string &path, const Scene &scene,
     H5Fclose(file);  // the destructor does not run for a constructor that throws
     throw;
   }
+  close_file("cutting it back to the checkpoint's frames");
 }
 
 namespace {
@@ -537,18 +541,25 @@ void TrajectoryWriter::cut_back(long long n, long long keep_frames) {
       cut_series(file, name, n, keep_frames, path_);
   checksums_ = series_exists(file, kChecksumSeries);
   if (checksums_) cut_series(file, kChecksumSeries, n, keep_frames, path_, false);
-  H5Fflush(file, H5F_SCOPE_GLOBAL);
 }
 
 TrajectoryWriter::~TrajectoryWriter() {
-  if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
+  if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));  // a frame that threw
+}
+
+void TrajectoryWriter::close_file(const std::string &what) {
+  const auto file = static_cast<hid_t>(file_);
+  file_ = -1;
+  check(H5Fclose(file), what, path_);
 }
 
 void TrajectoryWriter::append(const Particles &bodies, long long step, double time) {
   if (static_cast<long long>(bodies.size()) != n_)
     throw std::runtime_error(
         fmt::format("{}: frame has {} bodies, the file {}", path_, bodies.size(), n_));
-  const hid_t file = static_cast<hid_t>(file_);
+  const hid_t file = H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (file < 0) throw std::runtime_error(fmt::format("{}: cannot reopen the H5MD file", path_));
+  file_ = file;
   std::vector<double> buffer(static_cast<std::size_t>(n_) * 3);
   const std::array<std::array<const std::vector<double> *, 3>, 4> fields = {{
       {&bodies.x, &bodies.y, &bodies.z},
@@ -584,9 +595,9 @@ void TrajectoryWriter::append(const Particles &bodies, long long step, double ti
     const std::uint64_t hash = body_hash(bodies);
     append_row(file, kChecksumSeries, H5T_NATIVE_UINT64, &hash, frames_, path_);
   }
+  // A killed run keeps every complete frame; a full disk shows here at the latest.
+  close_file("writing frame " + std::to_string(frames_));
   ++frames_;
-  // A killed run keeps every complete frame; a full disk shows here, where the frame is written.
-  check(H5Fflush(file, H5F_SCOPE_GLOBAL), "writing frame " + std::to_string(frames_ - 1), path_);
 }
 
 }  // namespace hardrod

@@ -40,6 +40,11 @@ struct SnapshotFrame {
   Box box;
 };
 
+// Before any other HDF5 call: HDF5 registers no exit handler. Its handler closes what is still
+// open, and a file whose close already failed (a full disk) crashes it; the program closes its
+// files itself.
+void keep_hdf5_out_of_exit();
+
 // `frame` < 0 counts from the end (-1: the last). Checks layout, shapes, frame range, finite
 // values, unit axes, ids; throws std::runtime_error naming the file, the dataset and the
 // problem.
@@ -63,10 +68,20 @@ class TrajectoryWriter {
   // `bodies` in id order, all n of them.
   void append(const Particles &bodies, long long step, double time);
   long long frames() const { return frames_; }
+  // The data of one frame in bytes (its chunks' overhead aside).
+  std::uintmax_t frame_bytes() const {
+    const auto n = static_cast<std::uintmax_t>(n_);
+    return n * 4 * 3 * sizeof(double) + (wrapped_ ? n * 3 * (sizeof(double) + sizeof(int)) : 0) +
+           9 * sizeof(double) + 16 * sizeof(double);
+  }
 
  private:
   void cut_back(long long n, long long keep_frames);
-  long long file_ = -1;  // hid_t, kept opaque so only snapshot.cpp includes hdf5.h
+  void close_file(const std::string &what);  // throws naming `what` where the close failed
+  // hid_t, kept opaque so only snapshot.cpp includes hdf5.h. The file is open only while it
+  // is made, cut back or given a frame: between frames readers may open it, and a disk that
+  // fills with other files cannot catch it with data still to write.
+  long long file_ = -1;
   long long n_ = 0;
   long long frames_ = 0;
   std::array<double, 3> edges_{};  // the box, for the time-dependent box/edges

@@ -6,12 +6,16 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 #include "kernels/initial_state.hpp"
 #include "kernels/isotropic_start.hpp"
 #include "kernels/neighbor_list.hpp"
+#include "runtime/checkpoint.hpp"
+#include "runtime/export.hpp"
 #include "runtime/hoomd_gsd.hpp"
 #include "runtime/signals.hpp"
 #include "runtime/snapshot.hpp"
@@ -30,9 +34,28 @@ struct StartFrame {
   bool single_precision = false;
 };
 
+bool any_motion(const Particles &p) {
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.vx[i] != 0 || p.vy[i] != 0 || p.vz[i] != 0 || p.wx[i] != 0 || p.wy[i] != 0 ||
+        p.wz[i] != 0)
+      return true;
+  return false;
+}
+
+// The frame with its velocities (none stored, or all zero: drawn as for the other starts),
+// checked against the state checksum it was written with, as export checks it.
 StartFrame read_h5md_start(const Scene &scene) {
-  SnapshotFrame f = read_h5md_frame(scene.init_file, scene.init_frame);
-  return {std::move(f.bodies), f.box, f.frame, false, false};
+  SnapshotFrame f = read_h5md_frame_with_velocities(scene.init_file, scene.init_frame);
+  const std::optional<std::uint64_t> stored = read_frame_checksum(scene.init_file, f.frame);
+  const std::uint64_t now = body_hash(f.bodies);
+  if (stored && now != *stored)
+    throw std::runtime_error(
+        fmt::format("frame {} is damaged: its data hash to {:016x}, it was written as {:016x} "
+                    "(/observables/state_checksum; a frame edited on purpose starts once that "
+                    "dataset is removed)",
+                    f.frame, now, *stored));
+  const bool moving = any_motion(f.bodies);
+  return {std::move(f.bodies), f.box, f.frame, moving, false};
 }
 
 // Unwrapped with the scene's box in double (the file's is rounded to float).
@@ -105,18 +128,29 @@ Particles start_from_file(const Scene &scene) {
 
 }  // namespace
 
-Particles initial_bodies(const Scene &scene, bool stoppable) {
+Particles initial_bodies(const Scene &scene, bool stoppable, bool report) {
   if (scene.configuration == Configuration::kFile) return start_from_file(scene);
   Particles all;
   if (scene.configuration == Configuration::kIsotropic) {
     try {
       CompressionOptions options;
+      options.max_sweeps = scene.isotropic_sweeps;
       if (stoppable) options.stop = [] { return stop_signal() != 0; };
+      if (report)
+        options.progress = [&scene](long long sweeps, double scale) {
+          fmt::print("isotropic start: {} of at most {} sweeps, box side {:.4f} x the target's\n",
+                     sweeps, scene.isotropic_sweeps, scale);
+          std::fflush(stdout);
+        };
       all = make_isotropic(scene.n, scene.shape, scene.box, scene.seed, options);
     } catch (const CompressionStopped &) {
       throw;
     } catch (const std::exception &e) {
-      throw SceneError({fmt::format("init.configuration = \"isotropic\": {}", e.what())});
+      throw SceneError({fmt::format(
+          "init.configuration = \"isotropic\": {} (init.isotropic_sweeps = {}); dense nematic "
+          "states are reached from the lattice instead (init.configuration = \"lattice\", which "
+          "also melts into the isotropic phase below rho* ~ 0.4)",
+          e.what(), scene.isotropic_sweeps)});
     }
   } else {
     place_on_lattice(all, scene.box, scene.lattice, scene.axis);

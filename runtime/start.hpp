@@ -13,7 +13,7 @@ namespace hardrod {
 
 // Throws SceneError naming the key. `stoppable`: a stop signal ends a long set-up (the
 // isotropic compression) with CompressionStopped; only on one rank, where no other rank can be
-// left waiting.
-Particles initial_bodies(const Scene &scene, bool stoppable = false);
+// left waiting. `report`: its progress printed every few seconds.
+Particles initial_bodies(const Scene &scene, bool stoppable = false, bool report = false);
 
 }  // namespace hardrod

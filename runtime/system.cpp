@@ -25,7 +25,9 @@ System::System(Scene scene, ParallelOptions parallel) : scene_(std::move(scene))
   if (scene_.configuration == Configuration::kLattice)
     start_on_lattice(parallel);
   else
-    decompose_all(initial_bodies(scene_, comm_.size() == 1), parallel);
+    decompose_all(
+        initial_bodies(scene_, comm_.size() == 1, parallel.report_setup && comm_.is_root()),
+        parallel);
 }
 
 System::System(Scene scene, Particles bodies, ParallelOptions parallel, long long first_step)

@@ -64,6 +64,8 @@ struct ParallelOptions {
   // (kernels/exact/list_extension.hpp): the same trajectory. False builds it at every expiry
   // (tests, comparisons).
   bool extend_lists = true;
+  // Rank 0 prints the progress of a long set-up (the isotropic compression).
+  bool report_setup = false;
 };
 
 // What the load balancer did (runtime/balance.hpp); the same on every rank.

@@ -62,6 +62,10 @@ def main(args):
         frame = pos[-1]
         frame[:, 0] = (frame[:, 0] % side) * 0.5
         pos[-1] = frame
+        # An edited frame: no checksum, and no velocities, so they are drawn at --temperature.
+        del f["observables/state_checksum"]
+        for name in ("velocity", "angular_velocity"):
+            f[f"particles/all/{name}/value"][-1] = 0.0
     env = dict(mpi.ROOT_ENV)
     sets = {**base, "init.configuration": '"file"', "init.file": f'"{start.resolve()}"',
             "init.temperature": repr(args.temperature), "run.steps": str(args.steps),

@@ -381,6 +381,9 @@ def main(args):
         for size in parse_list(args.n, int):
             cube_multiple(size, "--n")
             plan += [("strong", size, r, False) for r in ranks_list]
+    # smpirun loads the program with dlopen, which searches the library path for a name
+    # without a slash: a relative --smpi-binary is made absolute.
+    args.smpi_binary = str(Path(args.smpi_binary).absolute())
     if not args.dry_run:
         missing = [p for p in (args.smpi_binary,) if not Path(p).exists()]
         if missing:

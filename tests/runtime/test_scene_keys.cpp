@@ -59,8 +59,8 @@ using testing::problems_of;
 TEST(SceneKeys, KeyTableDrivesReferenceOverridesAndWriter) {
   const std::string reference = scene_keys_reference();
   const auto keys = scene_keys();
-  EXPECT_EQ(keys.size(), 30u);
-  EXPECT_EQ(std::count(reference.begin(), reference.end(), '\n'), 30) << reference;
+  EXPECT_EQ(keys.size(), 31u);
+  EXPECT_EQ(std::count(reference.begin(), reference.end(), '\n'), 31) << reference;
   for (const auto &spec : keys) {
     const std::string key = std::string(spec.section) + "." + std::string(spec.name);
     EXPECT_FALSE(spec.help.empty()) << key;
@@ -76,7 +76,7 @@ TEST(SceneKeys, KeyTableDrivesReferenceOverridesAndWriter) {
       << reference;
 
   // Written: every key but the densities (the box stands for them), the lattice only for a
-  // lattice start and the file keys only for a file start.
+  // lattice start, the file keys only for a file start and the sweeps only for an isotropic one.
   for (const char *configuration : {"lattice", "file", "isotropic"}) {
     std::vector<std::string> set = {std::string("init.configuration=") + configuration};
     if (std::string(configuration) == "file") set.push_back("init.file=x.h5");
@@ -89,6 +89,7 @@ TEST(SceneKeys, KeyTableDrivesReferenceOverridesAndWriter) {
       const std::string start = configuration;
       const bool applies = spec.name == "lattice"                        ? start == "lattice"
                            : spec.name == "file" || spec.name == "frame" ? start == "file"
+                           : spec.name == "isotropic_sweeps"             ? start == "isotropic"
                                                                          : true;
       EXPECT_EQ(text.find(line) != std::string::npos, !density && applies)
           << spec.name << " with configuration " << configuration << ":\n"
@@ -133,9 +134,11 @@ TEST(SceneKeys, DefaultsOfAbsentKeys) {
 TEST(SceneKeys, EveryKeyRejectsAWrongValueByName) {
   for (const auto &spec : scene_keys()) {
     const std::string key = std::string(spec.section) + "." + std::string(spec.name);
-    // The file keys are read only for a file start, the lattice only for a lattice start.
+    // The file keys are read only for a file start, the lattice only for a lattice start, the
+    // sweeps only for an isotropic one.
     std::vector<std::string> set = {"init.configuration=file", "init.file=x.h5"};
     if (spec.name == "lattice") set.clear();
+    if (spec.name == "isotropic_sweeps") set = {"init.configuration=isotropic"};
     // A string key takes any text, so give it an empty one (the shape and the choices: a name
     // that is none of theirs); every other key gets a table.
     const bool string_key = is_string_key(spec);

@@ -59,6 +59,11 @@ def main():
             frame = pos[-1]
             frame[:, 0] = (frame[:, 0] % side) * 0.5
             pos[-1] = frame
+            # An edited frame: its checksum goes, and so do its velocities, drawn afresh at
+            # each case's init.temperature (an H5MD start takes a frame's velocities if any).
+            del f["observables/state_checksum"]
+            for name in ("velocity", "angular_velocity"):
+                f[f"particles/all/{name}/value"][-1] = 0.0
         common = ["--set", "init.configuration=\"file\"", "--set", f"init.file=\"{start}\"",
                   "--set", "run.steps=1000", "--set", "run.sample_interval=250"]
         mild = common + ["--set", "init.temperature=100.0", "--balance-interval", "50"]

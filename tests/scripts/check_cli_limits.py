@@ -2,7 +2,8 @@
 """hardrod's count options refuse values out of range by name, before anything is written:
 --threads beyond any node's hardware threads, a --grid that would wrap an int or exceed an MPI
 job; more threads than this process may use runs, with a warning. An unknown command is named
-as one, and an empty --out is refused rather than taken as no --out.
+as one, an empty --out is refused rather than taken as no --out, a section given to --set as a
+key is named as one, and many threads keep the placement report to a line.
 
   check_cli_limits.py HARDROD SOURCE_DIR
 """
@@ -42,6 +43,16 @@ def main():
     p, _ = run("over", "--threads", str(usable + 1))
     if p.returncode != 0 or f"--threads {usable + 1} is more than the {usable} hardware threads" not in p.stderr:
         failures.append(f"--threads {usable + 1}: exit {p.returncode}, said {p.stderr.strip()[:300]!r}")
+    # Many threads: the placement report stays a line, not one entry per thread.
+    p = subprocess.run([hardrod, "run", scene, "--out", str(work / "many"), "--threads", "40",
+                        "--force", *short[:-1]], capture_output=True, text=True)
+    longest = max((len(line) for line in (p.stdout + p.stderr).splitlines()), default=0)
+    if p.returncode != 0 or longest > 500:
+        failures.append(f"--threads 40: exit {p.returncode}, longest line {longest} characters")
+    # A section named as a key: its keys, not a look-alike from another section.
+    p, out = run("section", "--set", "run=1")
+    if p.returncode != 2 or "'run' is a section" not in p.stderr or "system.n" in p.stderr:
+        failures.append(f"--set run=1: exit {p.returncode}, said {p.stderr.strip()[:300]!r}")
     p = subprocess.run([hardrod, "frobnicate"], capture_output=True, text=True)
     if p.returncode != 1 or "unknown command: frobnicate" not in p.stderr:
         failures.append(f"frobnicate: exit {p.returncode}, said {p.stderr.strip()[:300]!r}")

@@ -53,10 +53,12 @@ def main():
                  dict(env, HARDROD_LAUNCHER="mpirun", SLURM_NTASKS_PER_NODE="2")).stdout
         expect(out, "mpirun --bind-to core --map-by ppr:2:node:pe=4")
         out = sh([str(sweep), str(scene), "system.reduced_density", "0.3", "0.4", "0.5",
-                  "--out", str(tmp / "dens"), "--dry-run", "--sbatch", "--time=1:00:00"],
-                 base).stdout
-        expect(out, "sbatch --parsable --array=0-2 --time=1:00:00", f"--sweep {tmp / 'dens'}/sweep.tsv",
-               "--dependency=afterok:JOBID",
+                  "--out", str(tmp / "dens"), "--dry-run", "--sbatch",
+                  "--time=1:00:00 --partition=debug -A proj"], base).stdout
+        expect(out, "sbatch --parsable --array=0-2 --time=1:00:00 --partition=debug -A proj",
+               f"--sweep {tmp / 'dens'}/sweep.tsv",
+               # the analysis gets the site's placement, not the array's time limit
+               "--dependency=afterok:JOBID --job-name=hardrod-analyze --partition=debug -A proj --wrap",
                f"analyze {tmp}/dens/reduced_density-0.3 {tmp}/dens/reduced_density-0.4 "
                f"{tmp}/dens/reduced_density-0.5 --out {tmp / 'dens'}")
         table = (tmp / "dens/sweep.tsv").read_text().splitlines()
