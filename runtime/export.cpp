@@ -128,11 +128,6 @@ void write_text(const std::string &out, Write write) {
   });
 }
 
-bool same_file(const fs::path &a, const fs::path &b) {
-  std::error_code ec;
-  return fs::equivalent(a, b, ec) && !ec;  // device and inode, after resolving links
-}
-
 bool is_run_file(const std::string &name) { return is_run_file_name(name) || name == kLockFile; }
 
 // Refuses `path` (`out` or its temporary file) if something is there that is not a regular

@@ -13,6 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "runtime/run_files.hpp"
+
 namespace hardrod {
 
 namespace fs = std::filesystem;
@@ -123,11 +125,6 @@ void refuse_other_run(const fs::path &dir, const fs::path &checkpoint,
   throw CheckpointError(fmt::format(
       "{}: belongs to another run ({}); refusing to resume {} from it (nothing was changed)",
       checkpoint.string(), fmt::join(diffs, "; "), dir.string()));
-}
-
-bool same_file(const fs::path &a, const fs::path &b) {
-  std::error_code ec;
-  return fs::equivalent(a, b, ec) && !ec;
 }
 
 // A checkpoint belongs to the run in `dir` when it stores the same scene as the directory's

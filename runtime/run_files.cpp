@@ -42,6 +42,11 @@ constexpr const char *kRunFileNames[] = {
 
 }  // namespace
 
+bool same_file(const fs::path &a, const fs::path &b) {
+  std::error_code ec;
+  return fs::equivalent(a, b, ec) && !ec;
+}
+
 bool is_run_file_name(const std::string &name) {
   std::string base = name;
   if (base.size() > 4 && base.ends_with(".tmp")) base.resize(base.size() - 4);

@@ -38,6 +38,10 @@ struct Sample {
 // Creates the directory. Throws SceneError.
 void prepare_output_dir(const std::filesystem::path &dir, bool force);
 
+// Whether `a` and `b` are one file (device and inode, after resolving links); false where
+// either is missing.
+bool same_file(const std::filesystem::path &a, const std::filesystem::path &b);
+
 // Whether `name` (a file name, no folder) is one of the files that hardrod, its analysis and
 // its scripts write into a run directory: the outputs, the checkpoints, their temporary files
 // and the trajectories kept aside by a resume. The lock file is not one.

@@ -100,7 +100,7 @@ class RunLoop {
   bool frame_failed_ =
       false;  // that file was the trajectory: the state is whole, a checkpoint may follow
   long long last_checkpoint_step_ = -1;  // the newest complete checkpoint on disk (-1: none)
-  std::string stopped_by_;             // the signal that interrupted the run
+  std::string stopped_by_;               // the signal that interrupted the run
 };
 
 }  // namespace hardrod
