@@ -478,6 +478,18 @@ FrankBlock FrankAccumulator::total() const {
   return sum;
 }
 
+std::array<FrankAccumulator, 2> FrankAccumulator::halves() const {
+  std::array<FrankAccumulator, 2> out{FrankAccumulator(box_, bodies_, kmax_, config_),
+                                      FrankAccumulator(box_, bodies_, kmax_, config_)};
+  const long long all = samples();
+  long long seen = 0;
+  for (const FrankBlock &b : blocks_) {
+    out[2 * seen < all ? 0 : 1].restore_block(b);
+    seen += b.samples;
+  }
+  return out;
+}
+
 long long FrankAccumulator::samples() const {
   long long s = 0;
   for (const FrankBlock &b : blocks_) s += b.samples;

@@ -121,6 +121,10 @@ class FrankAccumulator {
   int kmax() const { return kmax_; }
   const FrankAccumulatorConfig &config() const { return config_; }
 
+  // The production's first and second half (by samples, at a block boundary): for the check
+  // that the two halves agree.
+  std::array<FrankAccumulator, 2> halves() const;
+
   // A block as saved, appended without merging: for the reader of a saved accumulator
   // (runtime/frank_io.hpp), which restores the blocks in their order.
   void restore_block(FrankBlock block) { blocks_.push_back(std::move(block)); }

@@ -49,21 +49,29 @@ std::vector<FrankBlock> replica_data(const std::vector<FrankAccumulator> &runs, 
 // phi_b = n_b var(mean) / mean^2 of each bin from the replicas' means, fitted by
 // phi = g0 + g1 u with u = <|Q|^2> / c = 1 / E_obs (weighted least squares, weights
 // (replicas - 1) / phi_model^2, the variance of a sample variance; g0, g1 >= 0).
+// {phi_hat, dof} of one bin; dof 0 where fewer than two replicas hold it.
+std::pair<double, double> bin_inflation(const FrankBlock &total,
+                                        const std::vector<FrankBlock> &replicas, int m,
+                                        const FrankBinKey &key) {
+  const double ybar = mean_of(total.bins.at(key), m);
+  double ss = 0.0, used = 0.0;
+  for (const FrankBlock &r : replicas) {
+    const auto it = r.bins.find(key);
+    if (it == r.bins.end() || it->second.count < 1) continue;
+    const double d = mean_of(it->second, m) - ybar;
+    ss += double(it->second.count) * d * d;
+    used += 1.0;
+  }
+  if (used < 2.0 || !(ybar > 0.0)) return {kNaN, 0.0};
+  return {ss / ((used - 1.0) * ybar * ybar), used - 1.0};
+}
+
 FrankVarianceModel variance_model(const FrankBlock &total, const std::vector<FrankBlock> &replicas,
                                   int m, double c, const std::set<FrankBinKey> &bins) {
   std::vector<std::array<double, 3>> data;  // u, phi_hat, dof
   for (const FrankBinKey &key : bins) {
-    const double ybar = mean_of(total.bins.at(key), m);
-    double ss = 0.0, used = 0.0;
-    for (const FrankBlock &r : replicas) {
-      const auto it = r.bins.find(key);
-      if (it == r.bins.end() || it->second.count < 1) continue;
-      const double d = mean_of(it->second, m) - ybar;
-      ss += double(it->second.count) * d * d;
-      used += 1.0;
-    }
-    if (used >= 2.0 && ybar > 0.0)
-      data.push_back({ybar / c, ss / ((used - 1.0) * ybar * ybar), used - 1.0});
+    const auto [phi, dof] = bin_inflation(total, replicas, m, key);
+    if (dof > 0.0) data.push_back({mean_of(total.bins.at(key), m) / c, phi, dof});
   }
   FrankVarianceModel model;
   model.bins = static_cast<int>(data.size());
@@ -116,6 +124,7 @@ struct Point {
   double n;            // k vectors x samples
   double u;            // <|Q|^2> / c, for the variance model
   double background;   // subtracted self term / c (0 without subtraction)
+  FrankBinKey key;
   // Relative error of E when the truth is E_model: that of <|Q|^2>, sqrt(phi / n), amplified
   // by <|Q|^2> / (<|Q|^2> - self) = 1 + background E_model.
   double rel(const FrankVarianceModel &v, double E_model) const {
@@ -143,7 +152,8 @@ std::vector<Point> e_points(const FrankBlock &data, int m, double c, const Frank
             c / (mean - self),
             n,
             mean / c,
-            self / c};
+            self / c,
+            key};
     // E[1/mean] = (1/mu)(1 + rel^2 + ...). A bin with rel > 1/2 (fewer than four effective
     // samples) has a skewed, heavy-tailed ratio that no second-order correction repairs: left out.
     const double rel = p.rel(v, p.E);
@@ -481,7 +491,8 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
   std::set<FrankBinKey> fitted;  // the variance model is fitted on the bins some fit uses
   for (const FrankBinKey &key : keys) {
     const FrankBin &bin = total.bins.at(key);
-    const Point p{bin.k1sq / double(bin.count), bin.k3sq / double(bin.count), 0, 0, 0, 0, 0, 0, 0};
+    const Point p{
+        bin.k1sq / double(bin.count), bin.k3sq / double(bin.count), 0, 0, 0, 0, 0, 0, 0, key};
     if (range_of(Model::kCubic, options).contains(p) ||
         range_of(Model::kPlanar, options).contains(p))
       fitted.insert(key);
@@ -511,8 +522,70 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
   for (int m = 1; m <= 2; ++m)
     for (const Point &p : e_points(total, m, c, options, v[size_t(m - 1)], keys))
       (m == 1 ? result.E13 : result.E23)
-          .push_back({p.x, p.y, p.E, p.E * p.rel(v[size_t(m - 1)], p.E), (long long)p.n});
+          .push_back(
+              {p.x, p.y, p.E, p.E * p.rel(v[size_t(m - 1)], p.E), (long long)p.n,
+               replicas.size() >= 2 ? bin_inflation(total, replicas, m, p.key).first : kNaN});
   return result;
+}
+
+namespace {
+
+// n var(mean) / var of n consecutive samples of |Q|^2 whose amplitude lives tau samples (their
+// |Q|^2 then correlate as rho = exp(-2 / tau) per sample): coth(1 / tau) for n -> infinity,
+// n for tau -> infinity.
+double finite_run_inflation(double tau, double n) {
+  const double rho = std::exp(-2.0 / tau);
+  return (1.0 + rho) / (1.0 - rho) -
+         2.0 * rho * (1.0 - std::pow(rho, n)) / (n * (1.0 - rho) * (1.0 - rho));
+}
+
+// Its inverse in tau by bisection on log tau; infinity where phi is at or beyond 95 % of the
+// saturation n (the mode outlives the replicas: only a lower bound is known).
+double lifetime_from_inflation(double phi, double n) {
+  if (!(phi > 1.0)) return 0.0;
+  if (phi >= 0.95 * n) return std::numeric_limits<double>::infinity();
+  double lo = std::log(1e-3), hi = std::log(1e3 * n);
+  for (int it = 0; it < 100; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (finite_run_inflation(std::exp(mid), n) < phi ? lo : hi) = mid;
+  }
+  return std::exp(0.5 * (lo + hi));
+}
+
+}  // namespace
+
+// The slow end: among the well-populated bins (at least the median count; a wandering
+// director leaves sparse, noisy bins below the lowest real mode), the smallest E, and a
+// lifetime pooled over the bins up to twice that E as tau_b E_b = const (a mode relaxes at a
+// rate ~ K k^2), weighted by count: one bin's phi from six replicas is uncertain by ~60 %.
+// Each bin's tau from its phi over replicas of finite length (finite_run_inflation).
+FrankSlowestMode slowest_mode(const FrankResult &r) {
+  FrankSlowestMode out;
+  std::vector<const FrankBinE *> bins;
+  std::vector<long long> counts;
+  for (const auto *list : {&r.E13, &r.E23})
+    for (const FrankBinE &b : *list) bins.push_back(&b), counts.push_back(b.count);
+  if (bins.empty()) return out;
+  std::nth_element(counts.begin(), counts.begin() + counts.size() / 2, counts.end());
+  const long long median = counts[counts.size() / 2];
+  for (std::size_t i = 0; i < bins.size(); ++i)
+    if (bins[i]->count >= median && bins[i]->E > 0.0 && !(bins[i]->E >= out.E))
+      out.E = bins[i]->E, out.k1sq = bins[i]->k1sq, out.k3sq = bins[i]->k3sq,
+      out.component = i < r.E13.size() ? 1 : 2;
+  out.replica_samples = r.replicas > 0 ? double(r.samples) / r.replicas : kNaN;
+  double weight = 0.0, sum = 0.0;
+  for (const FrankBinE *b : bins) {
+    if (b->count < median || !(b->E <= 2.0 * out.E) || !std::isfinite(b->phi)) continue;
+    const double tau = lifetime_from_inflation(b->phi, out.replica_samples);
+    sum += double(b->count) * tau * b->E, weight += double(b->count);
+  }
+  if (weight > 0.0) {
+    out.lifetime_samples = sum / weight / out.E;
+    out.outlives_replicas = std::isinf(out.lifetime_samples);
+    if (out.outlives_replicas) out.lifetime_samples = out.replica_samples;
+    out.phi = finite_run_inflation(out.lifetime_samples, out.replica_samples);
+  }
+  return out;
 }
 
 }  // namespace hardrod

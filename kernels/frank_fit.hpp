@@ -85,6 +85,8 @@ struct FrankBinE {
   double k1sq = 0, k3sq = 0;  // bin means
   double E = 0, error = 0;    // error from the variance model (see header)
   long long count = 0;
+  // The bin's own inflation phi from the replicas' spread (NaN with fewer than two)
+  double phi = std::numeric_limits<double>::quiet_NaN();
 };
 
 // The variance model phi = g0 + g1 / E of one component, fitted to the replicas.
@@ -105,6 +107,24 @@ struct FrankResult {
   int replicas = 0;          // runs, or stretches of the single run, the variances come from
   std::string error_method;  // how the bin variances were measured
 };
+
+// The slowest director mode among a result's bins (the smallest E of E13 and E23) and its
+// lifetime from the bins' inflation: amplitudes that decorrelate as exp(-t / tau) (tau in
+// samples) give a bin's mean over n samples the inflation phi -> coth(1 / tau) for n >> tau,
+// and -> n once tau outlives the replicas (then only tau >= n is known: outlives_replicas).
+// Relaxing from an aligned start, such a mode's variance reaches 1 - exp(-2 t / tau) of its
+// equilibrium value by time t. NaN fields where there are no bins or no replicas.
+struct FrankSlowestMode {
+  double E = std::numeric_limits<double>::quiet_NaN();
+  double k1sq = std::numeric_limits<double>::quiet_NaN();
+  double k3sq = std::numeric_limits<double>::quiet_NaN();
+  int component = 0;                                      // 1: E13, 2: E23
+  double phi = std::numeric_limits<double>::quiet_NaN();  // of the lifetime, over a replica
+  double lifetime_samples = std::numeric_limits<double>::quiet_NaN();
+  double replica_samples = std::numeric_limits<double>::quiet_NaN();  // samples per replica
+  bool outlives_replicas = false;  // lifetime_samples is then replica_samples, a lower bound
+};
+FrankSlowestMode slowest_mode(const FrankResult &r);
 
 // Central values from all runs merged (operator+=, which checks that box, N, kmax and bin
 // width agree). A fit with no more bins than parameters, or whose K is not positive and

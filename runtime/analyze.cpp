@@ -2,12 +2,16 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <string>
+#include <tuple>
 
 #include "kernels/frank_fit.hpp"
 #include "runtime/analyze_verdict.hpp"
@@ -80,11 +84,78 @@ void add_frank_constants(nlohmann::json &out, const FrankResult &r) {
 }
 
 // Per fit {trusted, reason}; the same verdict beside each of its estimates.
+// The runs' start: from a file, the relaxation before it is unknown; NaN then, and where
+// scene.toml cannot be read.
+double equilibration_from_start(const std::string &dir, const nlohmann::json &summary) {
+  try {
+    const toml::table scene = toml::parse_file((fs::path(dir) / "scene.toml").string());
+    if (scene["init"]["configuration"].value_or(std::string("lattice")) == "file") return NAN;
+  } catch (const std::exception &) {
+    return NAN;
+  }
+  return summary.value("equilibration_steps", 0.0) * summary.value("dt", NAN);
+}
+
+// analysis.json's director_modes: the slowest mode's relaxation, judged on the shortest
+// equilibration and the first run's Fourier sampling (production time / samples).
+nlohmann::json director_modes(const FrankResult &r, const std::vector<std::string> &dirs,
+                              const std::vector<nlohmann::json> &summaries) {
+  double equilibration = INFINITY;
+  for (std::size_t k = 0; k < dirs.size(); ++k) {
+    const double t = equilibration_from_start(dirs[k], summaries[k]);
+    equilibration = std::isnan(t) || std::isnan(equilibration) ? NAN : std::min(equilibration, t);
+  }
+  const double samples = summaries.front().value("frank_samples", 0.0);
+  const double sample_tau =
+      samples > 0.0 ? summaries.front().value("production_time", NAN) / samples : NAN;
+  return judge_director_modes(slowest_mode(r), sample_tau, equilibration);
+}
+
+// The production's halves fitted apart (each run's first halves together, then its second
+// halves): per fit, the K of each and the largest pull |a - b| / sqrt(ea^2 + eb^2); they agree
+// below 3 (null where a half cannot determine the K).
+nlohmann::json production_halves(const std::vector<FrankAccumulator> &frank,
+                                 const FrankFitOptions &options) {
+  std::vector<FrankAccumulator> first, second;
+  for (const FrankAccumulator &f : frank) {
+    const auto h = f.halves();
+    first.push_back(h[0]), second.push_back(h[1]);
+  }
+  if (first.front().samples() == 0 || second.front().samples() == 0) return nullptr;
+  const FrankResult a = fit_frank(first, options), b = fit_frank(second, options);
+  nlohmann::json out;
+  const std::pair<const char *, const FrankModelFit FrankResult::*> models[] = {
+      {"planar", &FrankResult::planar},
+      {"cubic", &FrankResult::cubic},
+      {"background", &FrankResult::background}};
+  for (const auto &[name, member] : models) {
+    const FrankModelFit &fa = a.*member, &fb = b.*member;
+    double worst = 0.0;
+    std::string which;
+    nlohmann::json fit;
+    for (const auto &[k, ea, eb] : {std::tuple{"K1", fa.K1, fb.K1}, std::tuple{"K2", fa.K2, fb.K2},
+                                    std::tuple{"K3", fa.K3, fb.K3}}) {
+      fit["first"][k] = estimate(ea, NAN, 0);
+      fit["second"][k] = estimate(eb, NAN, 0);
+      const double pull = std::fabs(ea.value - eb.value) / std::hypot(ea.error, eb.error);
+      if (!std::isfinite(pull)) worst = NAN;
+      if (std::isfinite(worst) && pull > worst) worst = pull, which = k;
+    }
+    fit["max_pull"] = std::isfinite(worst) ? nlohmann::json(worst) : nlohmann::json();
+    fit["max_pull_in"] = which;
+    fit["agree"] = std::isfinite(worst) ? nlohmann::json(worst < 3.0) : nlohmann::json();
+    out[name] = fit;
+  }
+  return out;
+}
+
 void add_fit_verdicts(nlohmann::json &out, const FrankResult &r, bool equilibrated) {
   const std::pair<const char *, const FrankModelFit *> models[] = {
       {"planar", &r.planar}, {"cubic", &r.cubic}, {"background", &r.background}};
   for (const auto &[name, f] : models) {
-    const nlohmann::json v = judge_fit(*f, equilibrated);
+    const nlohmann::json halves =
+        out["production_halves"].is_object() ? out["production_halves"][name] : nlohmann::json();
+    const nlohmann::json v = judge_fit(*f, equilibrated, out["director_modes"], halves);
     out["frank_fits"][name] = v;
     for (const char *k : {"K1", "K2", "K3", "K3_from_E13", "K3_from_E23"})
       out[k][name]["trusted"] = v["trusted"];
@@ -98,6 +169,8 @@ void print_warnings(const nlohmann::json &out) {
       fmt::print("WARNING: {} is not equilibrated: {}\n", run["run"].get<std::string>(),
                  why.get<std::string>());
   if (!out.contains("frank_fits")) return;
+  if (!out["director_modes"]["relaxed"].get<bool>())
+    fmt::print("WARNING: {}\n", out["director_modes"]["reason"].get<std::string>());
   for (const auto &[name, v] : out["frank_fits"].items())
     if (!v["trusted"].get<bool>())
       fmt::print("WARNING: the {} fit{} is not trusted: {}\n", name,
@@ -292,6 +365,8 @@ nlohmann::json analyze_runs(const AnalyzeOptions &options) {
     const FrankResult r = fit_frank(frank, options.frank);
     add_frank_constants(out, r);
     out["frank_recommended_fit"] = "cubic";  // why: docs/frank.md
+    out["director_modes"] = director_modes(r, options.run_dirs, summaries);
+    out["production_halves"] = production_halves(frank, options.frank);
     add_fit_verdicts(out, r, equilibrated);
     out["frank"] = to_json(r);
     out["fourier_samples"] = r.samples;

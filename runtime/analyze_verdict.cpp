@@ -146,7 +146,57 @@ nlohmann::json judge_run(const std::string &dir, const nlohmann::json &summary) 
 // chi2/dof's own scatter keep a fit of few bins from failing on noise.
 double chi2_dof_limit(int dof) { return 3.0 + 3.0 * std::sqrt(2.0 / dof); }
 
-nlohmann::json judge_fit(const FrankModelFit &fit, bool equilibrated) {
+// The variance a mode relaxing from zero must reach before production: at 95 % a mode's E
+// reads ~5 % stiff, about the fits' errors.
+constexpr double kRelaxedFraction = 0.95;
+
+nlohmann::json judge_director_modes(const FrankSlowestMode &m, double sample_tau,
+                                    double equilibration_tau) {
+  nlohmann::json out{{"judged", false}, {"relaxed", true}, {"reason", ""}};
+  if (!std::isfinite(m.lifetime_samples) || !(sample_tau > 0.0)) {
+    out["note"] = "no lifetime: the bins need two or more replicas";
+    return out;
+  }
+  const double life = m.lifetime_samples * sample_tau, production = m.replica_samples * sample_tau;
+  out["slowest"] = {{"component", m.component == 1 ? "E13" : "E23"},
+                    {"E", m.E},
+                    {"k1sq", m.k1sq},
+                    {"k3sq", m.k3sq},
+                    {"lifetime_tau", life},
+                    {"lifetime_at_least", m.outlives_replicas}};
+  out["replica_production_tau"] = production;
+  const std::string mode = fmt::format(
+      "the slowest director mode of the fits ({} = {:.4f} at "
+      "k1^2 {:.4f}, k3^2 {:.4f} D^-2)",
+      m.component == 1 ? "E13" : "E23", m.E, m.k1sq, m.k3sq);
+  std::string reason;
+  if (m.outlives_replicas)
+    reason = fmt::format(
+        "{} lives at least as long as a replica's production ({:.3g} tau): the runs cannot average "
+        "it and its relaxation cannot be judged; run several of its lifetimes longer",
+        mode, production);
+  if (std::isfinite(equilibration_tau)) {
+    const double fraction = 1.0 - std::exp(-2.0 * equilibration_tau / life),
+                 needed = -0.5 * life * std::log(1.0 - kRelaxedFraction);
+    out["judged"] = true;
+    out["equilibration_tau"] = equilibration_tau;
+    out["relaxed_fraction"] = fraction;
+    out["needed_equilibration_tau"] = needed;
+    if (reason.empty() && fraction < kRelaxedFraction)
+      reason = fmt::format(
+          "{} lives ~{:.3g} tau; {:.3g} tau of equilibration from the start let its variance reach "
+          "~{:.0f} % of equilibrium, so the K read high: equilibrate at least {:.3g} tau",
+          mode, life, equilibration_tau, 100.0 * fraction, needed);
+  } else {
+    out["note"] = "the runs start from a file: the relaxation before it is not known";
+  }
+  out["relaxed"] = reason.empty();
+  out["reason"] = reason;
+  return out;
+}
+
+nlohmann::json judge_fit(const FrankModelFit &fit, bool equilibrated, const nlohmann::json &modes,
+                         const nlohmann::json &halves) {
   const int dof = fit.dof_13 + fit.dof_23;
   const double chi2 = fit.chi2_dof();
   std::string reason;
@@ -161,6 +211,13 @@ nlohmann::json judge_fit(const FrankModelFit &fit, bool equilibrated) {
         chi2, dof, chi2_dof_limit(dof));
   else if (!equilibrated)
     reason = "its input is not equilibrated";
+  else if (modes.is_object() && !modes.value("relaxed", true))
+    reason = "the slowest director modes are not relaxed (see director_modes)";
+  else if (halves.is_object() && halves.value("agree", nlohmann::json()).is_boolean() &&
+           !halves["agree"].get<bool>())
+    reason = fmt::format(
+        "the production's halves disagree ({} by {:.1f} combined errors): the runs still drift",
+        halves["max_pull_in"].get<std::string>(), halves["max_pull"].get<double>());
   return {{"trusted", reason.empty()}, {"reason", reason}};
 }
 

@@ -21,8 +21,22 @@ namespace hardrod {
 // timeseries.csv that cannot be parsed, naming the file and the line.
 nlohmann::json judge_run(const std::string &dir, const nlohmann::json &summary);
 
-// {trusted, reason}: reason empty when trusted.
-nlohmann::json judge_fit(const FrankModelFit &fit, bool equilibrated);
+// Whether the slowest director mode of the fits (slowest_mode) had time to relax before
+// production and is averaged by it. `sample_tau`: tau between Fourier samples; equilibration:
+// tau before production, from an aligned or isotropic start (NaN: the runs start from a file,
+// whose history is not known: the relaxation is not judged). {judged, relaxed, reason,
+// slowest: {component, E, k1sq, k3sq, lifetime_tau, lifetime_at_least}, equilibration_tau,
+// relaxed_fraction, needed_equilibration_tau}. Relaxed: 1 - exp(-2 t / lifetime) >= 0.95
+// and the lifetime shorter than a replica's production.
+nlohmann::json judge_director_modes(const FrankSlowestMode &slowest, double sample_tau,
+                                    double equilibration_tau);
+
+// {trusted, reason}: reason empty when trusted. `modes`: judge_director_modes's verdict;
+// `halves`: the fit's production halves ({agree, max_pull, max_pull_in}); either null where
+// there is none.
+nlohmann::json judge_fit(const FrankModelFit &fit, bool equilibrated,
+                         const nlohmann::json &modes = nullptr,
+                         const nlohmann::json &halves = nullptr);
 
 // The largest chi^2/dof a trusted fit with `dof` degrees of freedom may have: 3, plus 3 sd of
 // chi^2/dof's scatter.

@@ -38,6 +38,9 @@ struct SyntheticNematic {
   // Correlation of the director modes between consecutive samples of a run: tau_k = tau0 / E_k
   // samples (E_k = K k^2, the mode's stiffness); 0: independent samples.
   double tau0 = 0.0;
+  // The mean director's random walk: a step of this rms angle (rad) per sample, as the director
+  // of a finite box wanders; 0: fixed.
+  double director_step = 0.0;
 };
 
 // The everyday scene's box and body count (rho as in the paper's box).
@@ -114,20 +117,31 @@ class SyntheticSampler {
 
   const Box &box() const { return box_; }
 
-  // A new independent run: the mode amplitudes drawn from their stationary distribution.
-  void start(std::uint64_t seed) {
+  // A new independent run: the mode amplitudes drawn with `variance` times their stationary
+  // variance (1: equilibrium; 0: the aligned start, from which mode k's variance grows as
+  // 1 - exp(-2 t / tau_k)).
+  void start(std::uint64_t seed, double variance = 1.0) {
     rng_ = Rng(seed);
+    n0_ = unit(s_.director);
     amp_.assign(modes_.size(), {});
-    for (std::size_t m = 0; m < modes_.size(); ++m) draw_mode(m, 0.0);
+    for (std::size_t m = 0; m < modes_.size(); ++m) draw_mode(m, 0.0, std::sqrt(variance));
+  }
+
+  // The next sample's director modes, without placing bodies (an equilibration sample).
+  void advance() {
+    wander();
+    for (std::size_t m = 0; m < modes_.size(); ++m) draw_mode(m, s_.tau0);
   }
 
   // The next sample of the run: each mode relaxes as an AR(1) process with correlation
   // exp(-1 / tau_k) per sample, tau_k = tau0 / E_k (a director mode relaxes at a rate ~ K k^2);
   // centres and molecular disorder are new every sample (they decorrelate fast).
   void next(Particles &p) {
-    for (std::size_t m = 0; m < modes_.size(); ++m) draw_mode(m, s_.tau0);
+    advance();
     place_bodies(p);
   }
+
+  const Vec3 &director() const { return n0_; }
 
   // An independent sample (seeded): a new run of one sample.
   void sample(std::uint64_t seed, Particles &p) {
@@ -136,8 +150,18 @@ class SyntheticSampler {
   }
 
  private:
+  // The mean director takes a random step perpendicular to itself; the modes follow it in
+  // draw_mode, which projects their amplitudes on the new frame.
+  void wander() {
+    if (!(s_.director_step > 0.0)) return;
+    const Vec3 a = perpendicular(n0_), b = cross(n0_, a);
+    const double g1 = rng_.normal(), g2 = rng_.normal();
+    n0_ = unit(n0_ + (s_.director_step / std::numbers::sqrt2) * (g1 * a + g2 * b));
+  }
+
   // amp = alpha e1 + beta e2 (header comment, step 1); with tau0 > 0 the old alpha, beta decay.
-  void draw_mode(std::size_t m, double tau0) {
+  // `scale` multiplies the new part's standard deviation.
+  void draw_mode(std::size_t m, double tau0, double scale = 1.0) {
     const auto &kk = modes_[m];
     const Vec3 k =
         (2.0 * std::numbers::pi / s_.side) * Vec3{double(kk[0]), double(kk[1]), double(kk[2])};
@@ -148,8 +172,8 @@ class SyntheticSampler {
     const Vec3 e2 = cross(n0_, e1);
     const double E1 = s_.K1 * k1sq + s_.K3 * k3 * k3, E2 = s_.K2 * k1sq + s_.K3 * k3 * k3;
     const double volume = box_.volume();
-    const double s1 = std::sqrt(s_.kT / (volume * E1) / 2.0),
-                 s2 = std::sqrt(s_.kT / (volume * E2) / 2.0);
+    const double s1 = scale * std::sqrt(s_.kT / (volume * E1) / 2.0),
+                 s2 = scale * std::sqrt(s_.kT / (volume * E2) / 2.0);
     const double r1 = tau0 > 0.0 ? std::exp(-E1 / tau0) : 0.0,
                  r2 = tau0 > 0.0 ? std::exp(-E2 / tau0) : 0.0;
     const double f1 = std::sqrt(1.0 - r1 * r1), f2 = std::sqrt(1.0 - r2 * r2);
@@ -336,9 +360,13 @@ inline void expect_recovered(const char *name, const FrankEstimate &e, double wa
       << name << " = " << e.value << " +- " << e.error;
 }
 
-// `runs` independent runs of `samples` consecutive (correlated, with tau0 > 0) samples each.
+// `runs` independent runs of `samples` consecutive (correlated, with tau0 > 0) samples each,
+// from modes at `start_variance` of their equilibrium variance and after `equilibration`
+// samples that are not kept (the defaults: from equilibrium, kept from the first sample).
 inline std::vector<FrankAccumulator> correlated_runs(const SyntheticNematic &s, int runs,
-                                                     int samples, std::uint64_t seed0) {
+                                                     int samples, std::uint64_t seed0,
+                                                     double start_variance = 1.0,
+                                                     int equilibration = 0) {
   const int saved_threads = omp_get_max_threads();
   omp_set_num_threads(1);
   const Box box{{s.side, s.side, s.side}};
@@ -347,7 +375,8 @@ inline std::vector<FrankAccumulator> correlated_runs(const SyntheticNematic &s, 
   std::vector<FrankAccumulator> out;
   for (int r = 0; r < runs; ++r) {
     out.emplace_back(box, static_cast<long long>(s.bodies), s.kmax, block_config());
-    sampler.start(seed0 + 7919 * static_cast<std::uint64_t>(r));
+    sampler.start(seed0 + 7919 * static_cast<std::uint64_t>(r), start_variance);
+    for (int t = 0; t < equilibration; ++t) sampler.advance();
     for (int t = 0; t < samples; ++t) {
       sampler.next(p);
       const OrderParameter op = order_parameter(axis_moments(p, p.size()));

@@ -3,8 +3,8 @@
 Runs: for each system size (N = 18432, the paper's 8 x 48 x 48 lattice; N = 2304, the everyday
 4 x 24 x 24 lattice) and each velocity seed, one `hardrod run` from the aligned lattice with
 `run.equilibration_steps` for the equilibration and `run.steps` of production, S and P* sampled
-every 0.02 tau from t = 0, the Fourier order tensor every 0.02 tau in production, checkpoints
-every 10 tau. Two runs at a time (one thread each) on two cores. Rerunning the command skips
+every 0.02 tau from t = 0, the Fourier order tensor every 0.02 tau in production (--fourier-tau),
+checkpoints every 10 tau. Two runs at a time (one thread each) on two cores. Rerunning the command skips
 finished runs and resumes interrupted ones from their checkpoints.
 
 Analysis: `hardrod analyze` over the seeds of each size (S, P*, Frank constants with their
@@ -46,6 +46,7 @@ class PaperRun:
     kmax: int
     scene: str
     method: str = "midpoint"
+    fourier_tau: float = SAMPLE_TAU
 
     @property
     def name(self):
@@ -60,7 +61,7 @@ class PaperRun:
                 "run.equilibration_steps": self.steps(self.equil_tau),
                 "run.steps": self.steps(self.prod_tau), "run.sample_interval": every,
                 "observables.frank": "true", "observables.fourier_kmax": self.kmax,
-                "observables.fourier_interval": every,
+                "observables.fourier_interval": self.steps(self.fourier_tau),
                 "output.checkpoint_interval": self.steps(CHECKPOINT_TAU),
                 **({"run.method": '"exact"'} if self.method == "exact" else {})}
 
@@ -99,9 +100,9 @@ def plan(args):
     for n in args.sizes:
         spec = SIZES[n]
         prod = args.prod_tau if args.prod_tau else spec["prod_tau"]
-        for seed in range(1, args.seeds + 1):
+        for seed in range(1, args.seeds[n] + 1):
             runs.append(PaperRun(n, seed, Path(args.out).resolve() / f"n{n}" / f"seed{seed}", args.dt, args.equil_tau,
-                                 prod, spec["kmax"], spec["scene"], args.method))
+                                 prod, spec["kmax"], spec["scene"], args.method, args.fourier_tau))
     return runs
 
 
@@ -158,13 +159,17 @@ def add_arguments(sp):
                     help="run.method (default midpoint, the paper's; exact: collisions at their exact times, "
                          "no dt bias, at dt 1e-3 about two thirds of the midpoint method's cost at 1e-4)")
     sp.add_argument("--sizes", default="18432,2304", help="comma list of N among 18432, 2304 (default both)")
-    sp.add_argument("--seeds", type=int, default=6, help="velocity seeds per size (default 6)")
+    sp.add_argument("--seeds", default="6",
+                    help="velocity seeds per size (default 6), or one count per --sizes entry (4,6)")
     sp.add_argument("--dt", type=float, default=None,
                     help="time step (default 1e-4 for the midpoint method, the trade-off harness's choice: P* "
                          "-0.22 %% against dt -> 0; 1e-3 for the exact method)")
     sp.add_argument("--equil-tau", type=float, default=150.0, help="equilibration, tau (default 150)")
     sp.add_argument("--prod-tau", type=float, default=0.0,
                     help="production, tau (default 60 at N = 18432, 240 at N = 2304)")
+    sp.add_argument("--fourier-tau", type=float, default=SAMPLE_TAU,
+                    help="Fourier samples every this many tau in production (default 0.02; one sample at N = 18432 "
+                         "costs about as much as 20 exact steps, so long runs take 0.1)")
     sp.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at a time (default: cores)")
     sp.add_argument("--analyze-only", action="store_true", help="do not run; analyse the finished runs")
 
@@ -179,6 +184,17 @@ def main(args):
     if bad:
         print(f"bench paper: --sizes: {bad} not among {sorted(SIZES)}", file=sys.stderr)
         return 2
+    try:
+        counts = [int(c) for c in str(args.seeds).split(",")]
+        if len(counts) == 1:
+            counts *= len(args.sizes)
+        if len(counts) != len(args.sizes) or min(counts) < 1:
+            raise ValueError
+    except ValueError:
+        print(f"bench paper: --seeds {args.seeds!r}: one count >= 1, or one per --sizes entry "
+              f"({len(args.sizes)})", file=sys.stderr)
+        return 2
+    args.seeds = dict(zip(args.sizes, counts))
     runs = plan(args)
     if args.dry_run:
         print(f"(dry run) {len(runs)} runs, {args.jobs} at a time; a finished run is skipped, an interrupted one "

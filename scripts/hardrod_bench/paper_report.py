@@ -93,10 +93,13 @@ def pm(e, digits=3):
     return f"{e['mean']:.{digits}f} +/- {e['error']:.{digits}f}"
 
 
-def size_row(n, a, verdict):
+def size_row(n, a, verdict, production_tau):
+    fit = a.get("frank_recommended_fit")
     row = {"N": n, "runs": a["runs"], "fourier_samples": a.get("fourier_samples"),
-           "P": a["pressure_star"], "S": a["order_parameter"],
-           "equilibrated": verdict["equilibrated"], "equilibration": verdict}
+           "production_tau": production_tau, "P": a["pressure_star"], "S": a["order_parameter"],
+           "equilibrated": verdict["equilibrated"], "equilibration": verdict,
+           "director_modes": a.get("director_modes"), "production_halves": a.get("production_halves"),
+           "recommended_fit": fit, "recommended_fit_verdict": a.get("frank_fits", {}).get(fit)}
     for fit in FITS:
         row[fit] = {k: a[k][fit] for k in CONSTANTS if k in a}
     return row
@@ -146,6 +149,26 @@ def markdown(rows, args):
             lines.append(f"  - {Path(v['run']).name}: MSER-5 cut at {v['mser_cut_tau']:.1f} tau"
                          f"{' (at the cap)' if v.get('cut_at_cap') else ''}, drift "
                          f"{d.get('drift', float('nan')):+.4f} (block error {d.get('drift_error', float('nan')):.4f})")
+    lines += ["", "The Frank fits' input (`hardrod analyze`, docs/frank.md): the slowest director mode's "
+              "lifetime (from its bins' spread over the seeds) against the equilibration, and the "
+              "recommended fit on each half of the production:", ""]
+    for r in rows:
+        m, h, v = r.get("director_modes") or {}, (r.get("production_halves") or {}).get(r.get("recommended_fit")), \
+            r.get("recommended_fit_verdict") or {}
+        slow = m.get("slowest") or {}
+        if slow:
+            lines.append(f"- N = {r['N']}: slowest mode {slow['component']} = {slow['E']:.4f} lives "
+                         f"{'>= ' if slow.get('lifetime_at_least') else '~'}{slow['lifetime_tau']:.0f} tau"
+                         + (f", relaxed to {100 * m['relaxed_fraction']:.1f} % by the production"
+                            if m.get("relaxed_fraction") is not None else ""))
+        if h:
+            lines.append(f"  - {r['recommended_fit']} fit, first half: K1 {pm(h['first']['K1'])}, K2 "
+                         f"{pm(h['first']['K2'])}, K3 {pm(h['first']['K3'])}; second half: K1 "
+                         f"{pm(h['second']['K1'])}, K2 {pm(h['second']['K2'])}, K3 {pm(h['second']['K3'])}; "
+                         f"largest pull {h['max_pull']:.1f} ({h['max_pull_in']})" if h.get("max_pull") is not None
+                         else f"  - {r['recommended_fit']} fit: halves not determined")
+        if v:
+            lines.append(f"  - {r['recommended_fit']} fit: " + ("trusted" if v["trusted"] else f"NOT TRUSTED: {v['reason']}"))
     return "\n".join(lines) + "\n"
 
 
@@ -196,10 +219,12 @@ def report(args, runs):
             print(f"bench paper: no finished run at N = {n}", file=sys.stderr)
             continue
         a = analyze_runs(HARDROD, done, out / f"n{n}")
-        rows.append(size_row(n, a, equilibration_verdict([run_equilibration(d) for d in done])))
+        production = next(r.prod_tau for r in runs if r.n == n)
+        rows.append(size_row(n, a, equilibration_verdict([run_equilibration(d) for d in done]), production))
     if not rows:
         return 1
-    result = {"method": getattr(args, "method", "midpoint"), "dt": args.dt, "equilibration_tau": args.equil_tau, "sizes": rows, "paper": PAPER}
+    result = {"method": getattr(args, "method", "midpoint"), "dt": args.dt, "equilibration_tau": args.equil_tau,
+              "fourier_tau": getattr(args, "fourier_tau", None), "sizes": rows, "paper": PAPER}
     by_n = {r["N"]: r for r in rows}
     if 2304 in by_n and 18432 in by_n:
         result["S_2304_minus_S_18432"] = difference(by_n[2304]["S"], by_n[18432]["S"])

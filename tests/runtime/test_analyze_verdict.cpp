@@ -120,5 +120,32 @@ TEST(AnalyzeVerdict, AFitIsTrustedOnlyWhenConsistentAndEquilibrated) {
   EXPECT_NEAR(chi2_dof_limit(40), 3.0 + 3.0 * std::sqrt(0.05), 1e-12);
 }
 
+// The slowest mode's verdict from its numbers: the relaxation 1 - exp(-2 t / lifetime), the
+// production against the lifetime, and no judgement where the start is a file.
+TEST(AnalyzeVerdict, DirectorModesRelaxedOnlyAfterLongEnoughEquilibration) {
+  FrankSlowestMode m;
+  m.component = 2, m.E = 0.0048, m.k1sq = 0.0121, m.k3sq = 0.0;
+  m.lifetime_samples = 2800.0, m.replica_samples = 4000.0;  // 280 tau, 400 tau at 0.1 tau
+  const auto paper = judge_director_modes(m, 0.1, 150.0);
+  EXPECT_FALSE(paper["relaxed"].get<bool>());
+  EXPECT_NEAR(paper["relaxed_fraction"].get<double>(), 1.0 - std::exp(-300.0 / 280.0), 1e-12);
+  EXPECT_NE(paper["reason"].get<std::string>().find("at least 419 tau"), std::string::npos)
+      << paper["reason"];
+  const auto long_run = judge_director_modes(m, 0.1, 600.0);
+  EXPECT_TRUE(long_run["relaxed"].get<bool>()) << long_run.dump();
+  EXPECT_TRUE(long_run["judged"].get<bool>());
+  EXPECT_FALSE(judge_fit(fit(1.1), true, paper)["trusted"].get<bool>());
+  EXPECT_TRUE(judge_fit(fit(1.1), true, long_run)["trusted"].get<bool>());
+
+  const auto from_file = judge_director_modes(m, 0.1, std::numeric_limits<double>::quiet_NaN());
+  EXPECT_FALSE(from_file["judged"].get<bool>());
+  EXPECT_TRUE(from_file["relaxed"].get<bool>());
+  m.outlives_replicas = true;  // a production shorter than the mode: never relaxed
+  const auto outlived = judge_director_modes(m, 0.1, std::numeric_limits<double>::quiet_NaN());
+  EXPECT_FALSE(outlived["relaxed"].get<bool>());
+  EXPECT_NE(outlived["reason"].get<std::string>().find("cannot average"), std::string::npos);
+  EXPECT_FALSE(judge_director_modes(FrankSlowestMode{}, 0.1, 600.0)["judged"].get<bool>());
+}
+
 }  // namespace
 }  // namespace hardrod
