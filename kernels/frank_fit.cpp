@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <utility>
@@ -46,10 +47,8 @@ std::vector<FrankBlock> replica_data(const std::vector<FrankAccumulator> &runs, 
   return out;
 }
 
-// phi_b = n_b var(mean) / mean^2 of each bin from the replicas' means, fitted by
-// phi = g0 + g1 u with u = <|Q|^2> / c = 1 / E_obs (weighted least squares, weights
-// (replicas - 1) / phi_model^2, the variance of a sample variance; g0, g1 >= 0).
-// {phi_hat, dof} of one bin; dof 0 where fewer than two replicas hold it.
+// phi_b = n_b var(mean) / mean^2 of one bin from the replicas' means: {phi_hat, dof}, dof 0
+// where fewer than two replicas hold it.
 std::pair<double, double> bin_inflation(const FrankBlock &total,
                                         const std::vector<FrankBlock> &replicas, int m,
                                         const FrankBinKey &key) {
@@ -66,11 +65,24 @@ std::pair<double, double> bin_inflation(const FrankBlock &total,
   return {ss / ((used - 1.0) * ybar * ybar), used - 1.0};
 }
 
-FrankVarianceModel variance_model(const FrankBlock &total, const std::vector<FrankBlock> &replicas,
-                                  int m, double c, const std::set<FrankBinKey> &bins) {
+using BinInflations = std::map<FrankBinKey, std::pair<double, double>>;
+
+// bin_inflation of every bin of `keys`, for one component.
+BinInflations bin_inflations(const FrankBlock &total, const std::vector<FrankBlock> &replicas,
+                             int m, const std::set<FrankBinKey> &keys) {
+  BinInflations out;
+  for (const FrankBinKey &key : keys) out[key] = bin_inflation(total, replicas, m, key);
+  return out;
+}
+
+// The bins' phi_hat (bin_inflations) fitted by phi = g0 + g1 u with u = <|Q|^2> / c = 1 / E_obs
+// (weighted least squares, weights (replicas - 1) / phi_model^2, the variance of a sample
+// variance; g0, g1 >= 0).
+FrankVarianceModel variance_model(const FrankBlock &total, const BinInflations &inflations, int m,
+                                  double c, const std::set<FrankBinKey> &bins) {
   std::vector<std::array<double, 3>> data;  // u, phi_hat, dof
   for (const FrankBinKey &key : bins) {
-    const auto [phi, dof] = bin_inflation(total, replicas, m, key);
+    const auto [phi, dof] = inflations.at(key);
     if (dof > 0.0) data.push_back({mean_of(total.bins.at(key), m) / c, phi, dof});
   }
   FrankVarianceModel model;
@@ -500,9 +512,13 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
   const std::vector<FrankBlock> replicas = replica_data(runs, options.replica_groups);
   result.replicas = static_cast<int>(replicas.size());
   std::array<FrankVarianceModel, 2> v;
-  for (int m = 1; m <= 2; ++m)
-    v[size_t(m - 1)] = replicas.size() >= 2 ? variance_model(total, replicas, m, c, fitted)
-                                            : independent_samples_model(total, m, fitted);
+  std::array<BinInflations, 2> inflations;
+  for (int m = 1; m <= 2; ++m) {
+    if (replicas.size() >= 2) inflations[size_t(m - 1)] = bin_inflations(total, replicas, m, keys);
+    v[size_t(m - 1)] = replicas.size() >= 2
+                           ? variance_model(total, inflations[size_t(m - 1)], m, c, fitted)
+                           : independent_samples_model(total, m, fitted);
+  }
   if (replicas.size() >= 2)
     result.error_method = runs.size() >= 2
                               ? "bin variances from the spread over runs"
@@ -522,9 +538,8 @@ FrankResult fit_frank(const std::vector<FrankAccumulator> &runs, const FrankFitO
   for (int m = 1; m <= 2; ++m)
     for (const Point &p : e_points(total, m, c, options, v[size_t(m - 1)], keys))
       (m == 1 ? result.E13 : result.E23)
-          .push_back(
-              {p.x, p.y, p.E, p.E * p.rel(v[size_t(m - 1)], p.E), (long long)p.n,
-               replicas.size() >= 2 ? bin_inflation(total, replicas, m, p.key).first : kNaN});
+          .push_back({p.x, p.y, p.E, p.E * p.rel(v[size_t(m - 1)], p.E), (long long)p.n,
+                      replicas.size() >= 2 ? inflations[size_t(m - 1)].at(p.key).first : kNaN});
   return result;
 }
 
@@ -583,7 +598,6 @@ FrankSlowestMode slowest_mode(const FrankResult &r) {
     out.lifetime_samples = sum / weight / out.E;
     out.outlives_replicas = std::isinf(out.lifetime_samples);
     if (out.outlives_replicas) out.lifetime_samples = out.replica_samples;
-    out.phi = finite_run_inflation(out.lifetime_samples, out.replica_samples);
   }
   return out;
 }

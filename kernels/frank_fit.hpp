@@ -118,8 +118,7 @@ struct FrankSlowestMode {
   double E = std::numeric_limits<double>::quiet_NaN();
   double k1sq = std::numeric_limits<double>::quiet_NaN();
   double k3sq = std::numeric_limits<double>::quiet_NaN();
-  int component = 0;                                      // 1: E13, 2: E23
-  double phi = std::numeric_limits<double>::quiet_NaN();  // of the lifetime, over a replica
+  int component = 0;  // 1: E13, 2: E23
   double lifetime_samples = std::numeric_limits<double>::quiet_NaN();
   double replica_samples = std::numeric_limits<double>::quiet_NaN();  // samples per replica
   bool outlives_replicas = false;  // lifetime_samples is then replica_samples, a lower bound

@@ -83,7 +83,6 @@ void add_frank_constants(nlohmann::json &out, const FrankResult &r) {
   }
 }
 
-// Per fit {trusted, reason}; the same verdict beside each of its estimates.
 // The runs' start: from a file, the relaxation before it is unknown; NaN then, and where
 // scene.toml cannot be read.
 double equilibration_from_start(const std::string &dir, const nlohmann::json &summary) {
@@ -149,6 +148,7 @@ nlohmann::json production_halves(const std::vector<FrankAccumulator> &frank,
   return out;
 }
 
+// Per fit {trusted, reason}; the same verdict beside each of its estimates.
 void add_fit_verdicts(nlohmann::json &out, const FrankResult &r, bool equilibrated) {
   const std::pair<const char *, const FrankModelFit *> models[] = {
       {"planar", &r.planar}, {"cubic", &r.cubic}, {"background", &r.background}};

@@ -166,8 +166,7 @@ nlohmann::json judge_director_modes(const FrankSlowestMode &m, double sample_tau
                     {"lifetime_at_least", m.outlives_replicas}};
   out["replica_production_tau"] = production;
   const std::string mode = fmt::format(
-      "the slowest director mode of the fits ({} = {:.4f} at "
-      "k1^2 {:.4f}, k3^2 {:.4f} D^-2)",
+      "the slowest director mode of the fits ({} = {:.4f} at k1^2 {:.4f}, k3^2 {:.4f} D^-2)",
       m.component == 1 ? "E13" : "E23", m.E, m.k1sq, m.k3sq);
   std::string reason;
   if (m.outlives_replicas)

@@ -4,8 +4,8 @@ Runs: for each system size (N = 18432, the paper's 8 x 48 x 48 lattice; N = 2304
 4 x 24 x 24 lattice) and each velocity seed, one `hardrod run` from the aligned lattice with
 `run.equilibration_steps` for the equilibration and `run.steps` of production, S and P* sampled
 every 0.02 tau from t = 0, the Fourier order tensor every 0.02 tau in production (--fourier-tau),
-checkpoints every 10 tau. Two runs at a time (one thread each) on two cores. Rerunning the command skips
-finished runs and resumes interrupted ones from their checkpoints.
+checkpoints every 10 tau. Two runs at a time (one thread each) on two cores. Rerunning the
+command skips finished runs and resumes interrupted ones from their checkpoints.
 
 Analysis: `hardrod analyze` over the seeds of each size (S, P*, Frank constants with their
 errors and chi^2 per fit), the equilibration judged from S (see `equilibration_verdict`), then

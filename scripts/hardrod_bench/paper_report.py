@@ -153,23 +153,31 @@ def markdown(rows, args):
               "lifetime (from its bins' spread over the seeds) against the equilibration, and the "
               "recommended fit on each half of the production:", ""]
     for r in rows:
-        m, h, v = r.get("director_modes") or {}, (r.get("production_halves") or {}).get(r.get("recommended_fit")), \
-            r.get("recommended_fit_verdict") or {}
-        slow = m.get("slowest") or {}
-        if slow:
-            lines.append(f"- N = {r['N']}: slowest mode {slow['component']} = {slow['E']:.4f} lives "
-                         f"{'>= ' if slow.get('lifetime_at_least') else '~'}{slow['lifetime_tau']:.0f} tau"
-                         + (f", relaxed to {100 * m['relaxed_fraction']:.1f} % by the production"
-                            if m.get("relaxed_fraction") is not None else ""))
-        if h:
-            lines.append(f"  - {r['recommended_fit']} fit, first half: K1 {pm(h['first']['K1'])}, K2 "
-                         f"{pm(h['first']['K2'])}, K3 {pm(h['first']['K3'])}; second half: K1 "
-                         f"{pm(h['second']['K1'])}, K2 {pm(h['second']['K2'])}, K3 {pm(h['second']['K3'])}; "
-                         f"largest pull {h['max_pull']:.1f} ({h['max_pull_in']})" if h.get("max_pull") is not None
-                         else f"  - {r['recommended_fit']} fit: halves not determined")
-        if v:
-            lines.append(f"  - {r['recommended_fit']} fit: " + ("trusted" if v["trusted"] else f"NOT TRUSTED: {v['reason']}"))
+        lines += frank_input_lines(r)
     return "\n".join(lines) + "\n"
+
+
+def frank_input_lines(r):
+    """One size's slowest director mode, the recommended fit on each production half, and its verdict."""
+    lines, fit = [], r.get("recommended_fit")
+    modes = r.get("director_modes") or {}
+    slow = modes.get("slowest")
+    if slow:
+        relaxed = modes.get("relaxed_fraction")
+        lines.append(f"- N = {r['N']}: slowest mode {slow['component']} = {slow['E']:.4f} lives "
+                     f"{'>= ' if slow.get('lifetime_at_least') else '~'}{slow['lifetime_tau']:.0f} tau"
+                     + (f", relaxed to {100 * relaxed:.1f} % by the production" if relaxed is not None else ""))
+    h = (r.get("production_halves") or {}).get(fit)
+    if h and h.get("max_pull") is not None:
+        first, second = (", ".join(f"{k} {pm(h[half][k])}" for k in ("K1", "K2", "K3")) for half in ("first", "second"))
+        lines.append(f"  - {fit} fit, first half: {first}; second half: {second}; "
+                     f"largest pull {h['max_pull']:.1f} ({h['max_pull_in']})")
+    elif h:
+        lines.append(f"  - {fit} fit: halves not determined")
+    v = r.get("recommended_fit_verdict")
+    if v:
+        lines.append(f"  - {fit} fit: " + ("trusted" if v["trusted"] else f"NOT TRUSTED: {v['reason']}"))
+    return lines
 
 
 def chi2(e):
