@@ -257,4 +257,9 @@ void System::add_targets(std::int64_t id, std::vector<int> &targets) const {
     if (r != comm_.rank()) targets.push_back(r);
 }
 
+const System::Holding *System::holding(std::int64_t id) const {
+  const auto h = holding_.find(id);
+  return h == holding_.end() ? nullptr : &h->second;
+}
+
 }  // namespace hardrod

@@ -23,6 +23,7 @@
 // runtime/diagnostics.cpp.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -212,6 +213,16 @@ class System {
   // The ranks other than this one that own or hold body `id` (if this rank holds it), added to
   // `targets`.
   void add_targets(std::int64_t id, std::vector<int> &targets) const;
+  // Who owns body `id` and which other ranks hold it (shadow copies), where this rank holds it;
+  // else nullptr.
+  struct Holding {
+    int owner = 0;
+    std::vector<int> holders;  // ranks with a shadow copy
+    bool has(int rank) const {
+      return owner == rank || std::find(holders.begin(), holders.end(), rank) != holders.end();
+    }
+  };
+  const Holding *holding(std::int64_t id) const;
   // Phase 3: one max-reduction of this rank's largest motion bound and boundary flag with the
   // problems and the stop asked for.
   Agreement agree(double largest_bound, bool boundary);
@@ -233,11 +244,6 @@ class System {
   [[noreturn]] void fail(const std::string &message) const;
 
  private:
-  struct Holding {
-    int owner = 0;
-    std::vector<int> holders;  // ranks with a shadow copy
-  };
-
   // Construction (system.cpp, decomposition.cpp, balance_check.cpp). SlabCounts: the bodies
   // per slab of the given cuts along an axis, for the starting cuts.
   using SlabCounts = std::function<std::vector<double>(int axis, const std::vector<double> &cuts)>;

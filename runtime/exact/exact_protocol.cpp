@@ -52,14 +52,20 @@ void find_ends(const std::vector<std::int64_t> &ids, const std::vector<ExactPiec
 
 }  // namespace
 
-void ExactPieces::tidy() {
+void ExactPieces::tidy(std::size_t tidy_bodies, std::size_t tidy_edges) {
+  if (tidy_bodies == bodies.size() && tidy_edges == edges.size() && ends.size() == edges.size())
+    return;  // nothing new since the last tidy
   // Sorted through compact keys (a body is 120 bytes): by id, a body's largest known degree
   // first (a join in a later round raises it), and the first of each id kept. Bodies of one id
-  // and degree carry the same bits, so which of them is kept does not matter.
+  // and degree carry the same bits, so which of them is kept does not matter. The tidy head is
+  // in that order already: only the new bodies are sorted, then merged with it.
   struct Key {
     std::int64_t id;
     std::int64_t degree;  // -1: unknown
     std::uint32_t at;
+  };
+  const auto before = [](const Key &a, const Key &b) {
+    return a.id != b.id ? a.id < b.id : a.degree > b.degree;
   };
   std::vector<Key> keys(bodies.size());
   for (std::size_t k = 0; k < bodies.size(); ++k) {
@@ -67,9 +73,9 @@ void ExactPieces::tidy() {
     keys[k] = {bodies[k].id, d == kDegreeUnknown ? -1 : std::int64_t{d},
                static_cast<std::uint32_t>(k)};
   }
-  std::sort(keys.begin(), keys.end(), [](const Key &a, const Key &b) {
-    return a.id != b.id ? a.id < b.id : a.degree > b.degree;
-  });
+  const auto head = keys.begin() + static_cast<std::ptrdiff_t>(tidy_bodies);
+  std::sort(head, keys.end(), before);
+  std::inplace_merge(keys.begin(), head, keys.end(), before);
   std::vector<Body> sorted;
   sorted.reserve(keys.size());
   ids.clear();
@@ -80,9 +86,12 @@ void ExactPieces::tidy() {
     }
   bodies.swap(sorted);
   // Of an edge sent twice, the first kept: a candidate not proven apart before one proven so.
-  std::sort(edges.begin(), edges.end(), [](const Edge &x, const Edge &y) {
+  const auto edge_before = [](const Edge &x, const Edge &y) {
     return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.candidate < y.candidate);
-  });
+  };
+  const auto edges_head = edges.begin() + static_cast<std::ptrdiff_t>(tidy_edges);
+  std::sort(edges_head, edges.end(), edge_before);
+  std::inplace_merge(edges.begin(), edges_head, edges.end(), edge_before);
   edges.erase(std::unique(edges.begin(), edges.end(),
                           [](const Edge &x, const Edge &y) { return x.a == y.a && x.b == y.b; }),
               edges.end());

@@ -48,8 +48,10 @@ struct ExactPieces {
   std::vector<std::int64_t> ids;  // the bodies' ids, compact for the merges (after tidy())
 
   // Sorts and drops duplicates, keeping a body's largest known degree (its owner's, which
-  // grows with the joins of later rounds), and finds every edge's bodies.
-  void tidy();
+  // grows with the joins of later rounds), and finds every edge's bodies. The first
+  // `tidy_bodies` bodies and `tidy_edges` edges may be left by an earlier tidy() (in order,
+  // without duplicates): only what came after them is sorted.
+  void tidy(std::size_t tidy_bodies = 0, std::size_t tidy_edges = 0);
   // Position of body `id` in `bodies` (bodies.size() if absent; after tidy()): one lookup, the
   // reference the ends that tidy() merges are tested against.
   std::uint32_t at(std::int64_t id) const;

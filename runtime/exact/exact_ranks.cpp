@@ -340,10 +340,10 @@ void ExactStep::forward_pieces(System &sys, ExactRound &round, std::vector<std::
       bodies.clear();
       for (std::uint32_t k = ec.start[c]; k < ec.start[c + 1]; ++k)
         bodies.push_back(pieces.bodies[ec.members[k]]);
-      post_piece(sys, bodies, edges[c]);
+      forward_piece(sys, bodies, edges[c]);
     }
     std::vector<ExactResult> none;
-    swap_pieces(sys, pieces, pieces.bodies.size(), fresh, none);
+    swap_pieces(sys, pieces, pieces.bodies.size(), pieces.edges.size(), fresh, none);
     std::sort(fresh.begin(), fresh.end());
     fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
   }
@@ -375,15 +375,41 @@ void ExactStep::open_messages(const System &sys, const std::vector<ExactResult> 
   }
 }
 
+// One renewed cluster forwarded to the owners and holders of its bodies that may lack a piece of
+// it. Every piece of a round went from its rank to the owners and holders of all its bodies, so
+// a rank that owns or holds every body of the cluster got each piece first hand: it is skipped.
+// Whether a rank holds a body is known here only for the bodies held here; one not held here
+// may be missing there, and the cluster goes.
+void ExactStep::forward_piece(System &sys, const std::vector<ExactPieces::Body> &bodies,
+                              const std::vector<ExactPieces::Edge> &edges) {
+  std::vector<const System::Holding *> held(bodies.size());
+  std::vector<int> targets;
+  for (std::size_t k = 0; k < bodies.size(); ++k) {
+    held[k] = sys.holding(bodies[k].id);
+    if (held[k] == nullptr) continue;
+    targets.push_back(held[k]->owner);
+    targets.insert(targets.end(), held[k]->holders.begin(), held[k]->holders.end());
+  }
+  sort_unique(targets);
+  for (int r : targets) {
+    if (r == sys.comm().rank()) continue;
+    const bool has_all = std::all_of(held.begin(), held.end(), [r](const System::Holding *h) {
+      return h != nullptr && h->has(r);
+    });
+    if (!has_all) pack_piece(out_[sys.domain().partner_slot(r)], bodies, edges);
+  }
+}
+
 // The posted messages exchanged with the partners: the results that arrive into `results`,
 // the pieces added to `pieces`, tidied; `fresh` gains the ids of every body added to `pieces`
-// since it held `first` bodies.
+// since it held `first` bodies and `first_edge` edges, which were tidy.
 void ExactStep::swap_pieces(System &sys, ExactPieces &pieces, std::size_t first,
-                            std::vector<std::int64_t> &fresh, std::vector<ExactResult> &results) {
+                            std::size_t first_edge, std::vector<std::int64_t> &fresh,
+                            std::vector<ExactResult> &results) {
   for (const auto &buf : sys.comm().exchange("exact_pieces", sys.domain().partners(), out_))
     unpack_message(buf, results, pieces);
   for (std::size_t k = first; k < pieces.bodies.size(); ++k) fresh.push_back(pieces.bodies[k].id);
-  pieces.tidy();
+  pieces.tidy(first, first_edge);
 }
 
 // A held component's result from its owner, in place of any earlier one.
@@ -413,7 +439,7 @@ std::vector<std::int64_t> ExactStep::exchange_pieces(System &sys, ExactRound &ro
   open_messages(sys, round.outgoing);
   round.outgoing.clear();
   ExactPieces &pieces = round.pieces;
-  const std::size_t first_new = pieces.bodies.size();
+  const std::size_t first_new = pieces.bodies.size(), first_edge = pieces.edges.size();
   // Each body's edges here, as ids (a < b): its candidates and joins; those of the components
   // that go, by component (a counting sort, stable: one flat array, not a vector each).
   std::vector<std::uint32_t> degree(sys.advanced(), 0);
@@ -456,7 +482,7 @@ std::vector<std::int64_t> ExactStep::exchange_pieces(System &sys, ExactRound &ro
   }
   std::vector<std::int64_t> fresh;
   std::vector<ExactResult> results;
-  swap_pieces(sys, pieces, first_new, fresh, results);
+  swap_pieces(sys, pieces, first_new, first_edge, fresh, results);
   for (const ExactResult &r : results) replace_exact(sys, round, r);
   return fresh;
 }

@@ -72,8 +72,10 @@ class ExactStep final : public StepMethod {
   void forward_pieces(System &sys, ExactRound &round, std::vector<std::int64_t> &fresh);
   void post_piece(const System &sys, const std::vector<ExactPieces::Body> &bodies,
                   const std::vector<ExactPieces::Edge> &edges);
+  void forward_piece(System &sys, const std::vector<ExactPieces::Body> &bodies,
+                     const std::vector<ExactPieces::Edge> &edges);
   void open_messages(const System &sys, const std::vector<ExactResult> &results);
-  void swap_pieces(System &sys, ExactPieces &pieces, std::size_t first,
+  void swap_pieces(System &sys, ExactPieces &pieces, std::size_t first, std::size_t first_edge,
                    std::vector<std::int64_t> &fresh, std::vector<ExactResult> &results);
   // --results-exchange for the exact method: on two ranks, where one exchange of pieces gives
   // every rank its clusters whole (on more, pieces are forwarded instead and the switch is

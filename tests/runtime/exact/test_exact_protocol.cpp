@@ -86,6 +86,43 @@ TEST(ExactProtocol, EveryEdgeFindsItsBodies) {
   }
 }
 
+// A tidy set with more pieces added and only the new part sorted (tidy(bodies, edges)) is the set
+// tidied whole: the same bodies, with each body's largest degree, the same edges and ends.
+TEST(ExactProtocol, TidyingOnlyTheNewPiecesEqualsTidyingAll) {
+  for (std::int64_t n = 1; n <= 30; ++n) {
+    ExactPieces head;
+    for (std::int64_t k = 0; k < n; ++k)
+      head.bodies.push_back(body(2 * k + 1, k % 3 == 0 ? 1 : kDegreeUnknown));
+    for (std::int64_t k = 0; k + 1 < n; k += 2) head.edges.push_back({2 * k + 1, 2 * k + 3, 1});
+    head.tidy();
+    ExactPieces all = head, part = head;
+    const std::size_t bodies = head.bodies.size(), edges = head.edges.size();
+    for (ExactPieces *r : {&all, &part}) {  // new bodies (some known, a higher degree) and edges
+      for (std::int64_t k = n + 2; k >= 0; k -= 2)
+        r->bodies.push_back(body(k + 1, k % 4 == 0 ? 2 : kDegreeUnknown));
+      for (std::int64_t k = 0; k + 2 <= n; ++k)
+        r->edges.push_back({k + 1, k + 3, k % 2 == 0 ? 2 : 1});
+    }
+    all.tidy();
+    part.tidy(bodies, edges);
+    ASSERT_EQ(part.bodies.size(), all.bodies.size()) << n;
+    for (std::size_t k = 0; k < all.bodies.size(); ++k) {
+      EXPECT_EQ(part.bodies[k].id, all.bodies[k].id) << n << " " << k;
+      EXPECT_EQ(part.bodies[k].degree, all.bodies[k].degree) << n << " " << k;
+      EXPECT_EQ(std::memcmp(part.bodies[k].state, all.bodies[k].state, sizeof all.bodies[k].state),
+                0);
+    }
+    ASSERT_EQ(part.edges.size(), all.edges.size()) << n;
+    for (std::size_t k = 0; k < all.edges.size(); ++k) {
+      EXPECT_EQ(part.edges[k].a, all.edges[k].a);
+      EXPECT_EQ(part.edges[k].b, all.edges[k].b);
+      EXPECT_EQ(part.edges[k].candidate, all.edges[k].candidate);
+    }
+    EXPECT_EQ(part.ends, all.ends) << n;
+    EXPECT_EQ(part.ids, all.ids) << n;
+  }
+}
+
 TEST(ExactProtocol, TheScratchProblemHoldsTheClustersBodiesEdgesAndNearPairs) {
   const Chain c;
   ExactPieces r;
