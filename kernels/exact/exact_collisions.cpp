@@ -90,14 +90,15 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
 std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const Shape &shape,
                                       const NeighborList &list, const std::vector<FlownBody> &flown,
                                       const std::vector<std::int64_t> &cluster,
-                                      std::vector<double> &overrun) {
+                                      std::vector<double> &overrun, const std::vector<char> *from) {
   std::vector<BodyPair> out;
   overrun.resize(std::max(overrun.size(), list.active), 0.0);
   for (const FlownBody &f : flown) overrun[f.body] = f.overrun;
   const Vec3 inverse = box.inverse_length();
   std::vector<Overrunner<std::int64_t>> bodies;
   for (const FlownBody &f : flown)
-    if (f.overrun > 0.0) bodies.push_back({f.body, cluster[f.body]});
+    if (f.overrun > 0.0 && (from == nullptr || (*from)[f.body]))
+      bodies.push_back({f.body, cluster[f.body]});
   OverrunCheck<std::int64_t>(p, box, inverse, shape, list, overrun, cluster.data(), out)
       .run(bodies);
   for (const FlownBody &f : flown) overrun[f.body] = 0.0;

@@ -140,11 +140,13 @@ ExactStats collide_once(const Particles &p, const Box &box, const Shape &shape,
 // The listed pairs (each once, lower index first) whose bodies lie in different clusters
 // (`cluster`, a label by body; -1 for none) and could have touched in the step given the flown
 // bodies' overruns: the test collide_exactly uses between its clusters. `overrun` is scratch (by
-// body, zeros on entry and on return).
+// body, zeros on entry and on return). With `from` (by body), only the pairs of the flown bodies
+// it marks are checked (every flown body's overrun still counts for its partners).
 std::vector<BodyPair> overrun_reaches(const Particles &p, const Box &box, const Shape &shape,
                                       const NeighborList &list, const std::vector<FlownBody> &flown,
                                       const std::vector<std::int64_t> &cluster,
-                                      std::vector<double> &overrun);
+                                      std::vector<double> &overrun,
+                                      const std::vector<char> *from = nullptr);
 
 // The flown bodies' end states written over their free flight's, and their motion bounds
 // grown by their overrun (the caller refreshes their motion constants). Without `turns`

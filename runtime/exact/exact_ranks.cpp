@@ -68,13 +68,22 @@ struct ExactRound {
   ExactStats work;                    // every round's passes
   long long unresolved = 0;           // advanced bodies of spanning clusters left unsolved
 
+  // By body: its result changed in this round (touched_list: which); the overrun check's marks.
+  std::vector<char> touched, check;
+  std::vector<std::uint32_t> touched_list, check_list;
+
+  void touch(std::uint32_t b) {
+    if (!touched[b]) touched[b] = 1, touched_list.push_back(b);
+  }
   void forget(std::uint32_t b) {
     label[b] = -1;
     flown_at[b] = kNoBody;
+    touch(b);
   }
   // Body b's result, unless it has one.
   void settle(std::uint32_t b, std::int64_t cluster, std::uint32_t n, const FlownBody *f) {
     if (label[b] != -1) return;
+    touch(b);
     label[b] = cluster;
     size[b] = n;
     if (f == nullptr) return;
@@ -109,6 +118,29 @@ struct ExactRound {
     }
     for (const auto &[a, b] : found) dirty[a] = dirty[b] = 1;
     joins.insert(joins.end(), found.begin(), found.end());
+  }
+  // The bodies whose pairs the overrun check takes this round: in the first every flown body
+  // (nullptr); later only the bodies whose results changed in the round and their listed
+  // partners. A pair of two unchanged bodies was checked with the same results in an earlier
+  // round and made no join there (a join changes both its bodies' clusters).
+  const std::vector<char> *take_checks(const NeighborList &list, bool first) {
+    const std::vector<char> *out = nullptr;
+    if (!first) {
+      for (const std::uint32_t b : check_list) check[b] = 0;
+      check_list.clear();
+      const auto mark = [&](std::uint32_t b) {
+        if (!check[b]) check[b] = 1, check_list.push_back(b);
+      };
+      for (const std::uint32_t b : touched_list) {
+        mark(b);
+        for (std::uint32_t q = list.pairs_start[b]; q < list.pairs_end[b]; ++q)
+          mark(list.pair_partner[q]);
+      }
+      out = &check;
+    }
+    for (const std::uint32_t b : touched_list) touched[b] = 0;
+    touched_list.clear();
+    return out;
   }
   // The standing results of the bodies whose velocity changed.
   std::vector<FlownBody> current() const {
@@ -173,9 +205,11 @@ ExactStats ExactStep::collide_on_ranks(System &sys, double &reach) {
   round.size.assign(n, 0);
   round.flown_at.assign(n, kNoBody);
   round.dirty.assign(n, 1);
+  round.touched.assign(n, 0);
+  round.check.assign(n, 0);
   const bool incremental = sys.comm().size() == 2 && !results_path(sys.comm().size());
   std::vector<double> overrun_scratch;
-  for (;;) {
+  for (bool first = true;; first = false) {
     const ExactComponents cc =
         components(n, sys.owned_count(), candidates_, round.joins, sys.shared());
     const std::vector<char> changed = round.take_changed(cc);
@@ -184,7 +218,7 @@ ExactStats ExactStep::collide_on_ranks(System &sys, double &reach) {
     const std::vector<FlownBody> flown = round.current();
     const std::vector<BodyPair> joins =
         overrun_reaches(sys.particles(), sys.scene().box, sys.scene().shape, sys.list(), flown,
-                        round.label, overrun_scratch);
+                        round.label, overrun_scratch, round.take_checks(sys.list(), first));
     double largest = 0.0;
     for (const FlownBody &f : flown)
       largest = std::max(largest, sys.particles().motion_bound[f.body] + f.overrun);
