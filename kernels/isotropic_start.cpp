@@ -481,6 +481,7 @@ Particles make_isotropic(long long n, const Shape &shape, const Box &target, std
   while (!run.finished()) {
     const bool out_of_sweeps = out.sweeps >= options.max_sweeps;
     if (out_of_sweeps || (options.max_seconds > 0.0 && elapsed() > options.max_seconds)) {
+      if (options.progress) options.progress(out.sweeps, run.scale());  // where it stopped
       out.seconds = elapsed();
       out.box_scale = run.scale();
       out.overlapping_pairs = run.overlapping_pairs();

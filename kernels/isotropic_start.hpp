@@ -56,7 +56,8 @@ struct CompressionOptions {
   // signal during a long set-up).
   std::function<bool()> stop;
   // Called every progress_seconds of compression, if set, with the sweeps so far and the box
-  // side over the target's: a long set-up shows that it moves.
+  // side over the target's, and once more where the compression gives up: a long set-up shows
+  // that it moves, and a failed one where it stood (however fast it ran).
   std::function<void(long long sweeps, double box_scale)> progress;
   double progress_seconds = 5.0;
 };
