@@ -7,7 +7,8 @@ parsed arguments to the module's main. The order of the sub-commands here is the
 
 import argparse
 
-from . import ab, answer, balance, edmd, instructions, kernels, paper, scaling, tradeoff, traffic, validate, versus
+from . import (ab, answer, balance, edmd, instructions, kernels, methods, paper, scaling, tradeoff, traffic,
+               validate, versus)
 
 USAGE = """hardrod benchmark harness: kernels, physics validation, speed/accuracy trade, scaling.
 
@@ -23,6 +24,7 @@ USAGE = """hardrod benchmark harness: kernels, physics validation, speed/accurac
   scripts/bench balance   [--ranks R] [--repeat R]   (load balancing on an uneven gas)
   scripts/bench answer    [--tau T] [--dt DT]   (time to answer from both sides)
   scripts/bench paper     [--dry-run] [--sizes 18432,2304] [--seeds 6]   (the paper's Table 1)
+  scripts/bench methods   [--dry-run] [--seeds 6] [--variants exact:1e-3,...]   (methods from the same states)
 
 Every sub-command drives the stable interface only (`build/hardrod run SCENE --set ...`,
 `build/bench/hardrod_bench_kernels --benchmark_out=...`), writes under
@@ -36,8 +38,9 @@ and bench/tradeoff/README.md say how to read the output.
 # In the order of --help; paper before answer, as it always was.
 HARNESSES = {"kernels": kernels, "instructions": instructions, "versus": versus, "ab": ab, "edmd": edmd,
              "validate": validate, "tradeoff": tradeoff, "scaling": scaling,
-             "traffic": traffic, "balance": balance, "paper": paper, "answer": answer}
-RAW_DESCRIPTION = {"paper"}  # its description is a module docstring with line breaks
+             "traffic": traffic, "balance": balance, "paper": paper, "methods": methods,
+             "answer": answer}
+RAW_DESCRIPTION = {"paper", "methods"}  # its description is a module docstring with line breaks
 
 
 def parser():
@@ -46,7 +49,7 @@ def parser():
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="Each sub-command writes results/<subcommand>-<timestamp>/ and prints where; "
                "`scripts/bench <cmd> --help` for its options, `--dry-run` to list its runs.")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{kernels,instructions,versus,ab,edmd,validate,tradeoff,scaling,traffic,balance,paper,answer}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="{kernels,instructions,versus,ab,edmd,validate,tradeoff,scaling,traffic,balance,paper,methods,answer}")
     for name, module in HARNESSES.items():
         extra = {"formatter_class": argparse.RawDescriptionHelpFormatter} if name in RAW_DESCRIPTION else {}
         sp = sub.add_parser(name, help=module.HELP, description=module.DESCRIPTION, **extra)

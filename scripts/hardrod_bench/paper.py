@@ -66,33 +66,55 @@ class PaperRun:
                 **({"run.method": '"exact"'} if self.method == "exact" else {})}
 
     def run_argv(self):
-        argv = [str(HARDROD.relative_to(ROOT)), "run", self.scene]
-        for k, v in self.sets().items():
-            argv += ["--set", f"{k}={v}"]
-        return argv + ["--out", str(self.out), "--force", "--threads", "1", "--no-bind", "--quiet"]
+        return run_argv(self.scene, self.sets(), self.out)
 
     def resume_argv(self):
-        return [str(HARDROD.relative_to(ROOT)), "resume", str(self.out), "--threads", "1", "--no-bind",
-                "--quiet"]
+        return resume_argv(self.out)
+
+    @property
+    def log(self):
+        return self.out.parent / f"seed{self.seed}.log"
 
     def state(self):
-        """'done', 'resume' (a checkpoint of these settings exists) or 'start'."""
-        summary = load_json(self.out / "summary.json")
-        if summary and summary.get("status") == "completed" and self.same_settings():
-            return "done"
-        if (self.out / "checkpoint.h5").exists() and self.same_settings():
-            return "resume"
-        return "start"
+        return run_state(self)
 
     def same_settings(self):
-        try:
-            first = (self.out.parent / f"seed{self.seed}.log").read_text(errors="replace").splitlines()[0]
-        except (OSError, IndexError):
-            return False
-        return first == "$ " + shlex.join(self.run_argv())
+        return logged_settings(self)
 
     def cost(self):
         return self.n * (self.equil_tau + self.prod_tau)
+
+
+def run_argv(scene, sets, out):
+    """One thread, unbound, quiet: the harnesses' long runs, two at a time on two cores."""
+    argv = [str(HARDROD.relative_to(ROOT)), "run", scene]
+    for k, v in sets.items():
+        argv += ["--set", f"{k}={v}"]
+    return argv + ["--out", str(out), "--force", "--threads", "1", "--no-bind", "--quiet"]
+
+
+def resume_argv(out):
+    return [str(HARDROD.relative_to(ROOT)), "resume", str(out), "--threads", "1", "--no-bind", "--quiet"]
+
+
+def run_state(run):
+    """'done', 'resume' (a checkpoint of these settings exists) or 'start', for a run with `out`,
+    `log` and `run_argv()` (this module's runs and `scripts/bench methods`')."""
+    summary = load_json(run.out / "summary.json")
+    if summary and summary.get("status") == "completed" and run.same_settings():
+        return "done"
+    if (run.out / "checkpoint.h5").exists() and run.same_settings():
+        return "resume"
+    return "start"
+
+
+def logged_settings(run):
+    """Whether the run's log opens with its `hardrod run` command: the same settings."""
+    try:
+        first = run.log.read_text(errors="replace").splitlines()[0]
+    except (OSError, IndexError):
+        return False
+    return first == "$ " + shlex.join(run.run_argv())
 
 
 def plan(args):
@@ -109,7 +131,7 @@ def plan(args):
 def execute(run):
     """One run to completion: start it, or resume it from its checkpoint. The log's first line is
     the `hardrod run` command (how a later invocation recognises the settings)."""
-    log = run.out.parent / f"seed{run.seed}.log"
+    log = run.log
     state = run.state()
     if state == "done":
         return run, 0, 0.0
@@ -128,9 +150,9 @@ def execute(run):
     return run, rc, time.monotonic() - start
 
 
-def run_phase(args, runs):
+def run_phase(args, runs, label="paper"):
     todo = [r for r in runs if r.state() != "done"]
-    print(f"bench paper: {len(runs)} runs, {len(runs) - len(todo)} finished, {len(todo)} to do, "
+    print(f"bench {label}: {len(runs)} runs, {len(runs) - len(todo)} finished, {len(todo)} to do, "
           f"{args.jobs} at a time", flush=True)
     failed = []
     t0 = time.monotonic()
@@ -138,7 +160,7 @@ def run_phase(args, runs):
         futures = [pool.submit(execute, r) for r in sorted(todo, key=lambda r: -r.cost())]
         for i, fut in enumerate(as_completed(futures), 1):
             run, rc, wall = fut.result()
-            status = "ok" if rc == 0 else f"exit {rc} (see {run.out.parent / f'seed{run.seed}.log'})"
+            status = "ok" if rc == 0 else f"exit {rc} (see {run.log})"
             print(f"  [{i}/{len(todo)}] {run.name:<16} {status:<12} {wall:7.0f} s "
                   f"(elapsed {time.monotonic() - t0:.0f} s)", flush=True)
             if rc != 0:
