@@ -12,6 +12,7 @@
 import contextlib
 import io
 import sys
+import tempfile
 from pathlib import Path
 
 from bench_cli import check, run_cli
@@ -21,7 +22,8 @@ from hardrod_bench import methods  # noqa: E402
 
 
 def dry_run():
-    status, text = run_cli(["methods", "--dry-run", "--seeds", "2", "--out", "/tmp/hardrod-methods-check"])
+    with tempfile.TemporaryDirectory() as out:  # a dry run writes nothing there
+        status, text = run_cli(["methods", "--dry-run", "--seeds", "2", "--out", out])
     lines = [l for l in text.splitlines() if "hardrod run" in l]
     check(status == 0 and len(lines) == 8, f"2 equilibrations and 2 x 3 variants listed ({len(lines)})")
     equil = lines[0]
